@@ -1,0 +1,54 @@
+// Declared parameters: each key is declared once with its type, default, range, unit and help.
+// The YAML loader, `--set key=value`, config.resolved.yaml and the README's config reference all
+// come from the same declarations, so they cannot drift. Unknown keys are input errors.
+#pragma once
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace mm {
+
+struct ParamDecl {
+  enum class Kind { kInt, kDouble, kBool, kString, kChoice };
+  std::string key;  ///< dotted path, e.g. "planning.time_limit"
+  Kind kind;
+  std::string default_value;  ///< as YAML text
+  double min = -std::numeric_limits<double>::infinity();
+  double max = std::numeric_limits<double>::infinity();
+  std::vector<std::string> choices;  ///< for kChoice
+  std::string unit;
+  std::string help;
+};
+
+class ParamSet {
+ public:
+  explicit ParamSet(std::vector<ParamDecl> decls);
+
+  /// Loads a YAML file of nested maps. Throws InputError naming file:line:col for malformed YAML,
+  /// unknown keys, wrong types and out-of-range values.
+  void loadYamlFile(const std::string& path);
+  /// Sets one value from text; `where` names the origin for messages (e.g. "--set").
+  void set(const std::string& key, const std::string& text, const std::string& where);
+
+  int64_t getInt(const std::string& key) const;
+  double getDouble(const std::string& key) const;
+  bool getBool(const std::string& key) const;
+  const std::string& getString(const std::string& key) const;
+  bool wasSet(const std::string& key) const;
+
+  /// Every parameter as used, nested, with units and help as comments.
+  std::string toYaml() const;
+  /// A Markdown table of every parameter (key, default, range, unit, meaning).
+  std::string toMarkdown() const;
+  const std::vector<ParamDecl>& decls() const { return decls_; }
+
+ private:
+  const ParamDecl& decl(const std::string& key, const std::string& where) const;
+  std::vector<ParamDecl> decls_;
+  std::map<std::string, std::string> values_;  ///< validated text
+  std::map<std::string, bool> set_;
+};
+
+}  // namespace mm

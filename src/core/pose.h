@@ -1,0 +1,24 @@
+// Poses and small geometry helpers. T_a_b maps coordinates in frame b into frame a.
+#pragma once
+#include <Eigen/Geometry>
+
+namespace mm {
+
+using Vec3 = Eigen::Vector3d;
+using Mat3 = Eigen::Matrix3d;
+using Quat = Eigen::Quaterniond;
+using Pose = Eigen::Isometry3d;
+
+Pose makePose(const Vec3& p, const Quat& q);
+Pose makePose(const Vec3& p, const Mat3& R);
+/// Rotation about z by `yaw` [rad].
+Mat3 rotZ(double yaw);
+Mat3 rotX(double a);
+/// Yaw [rad] of a rotation's x axis projected on the world xy plane.
+double yawOf(const Mat3& R);
+/// Wraps an angle into (-pi, pi].
+double wrapAngle(double a);
+/// Angle [rad] of the relative rotation between two orientations.
+double angleBetween(const Mat3& A, const Mat3& B);
+
+}  // namespace mm

@@ -1,0 +1,76 @@
+// RobotModel: an immutable serial arm with a parallel gripper, shared by every worker.
+// Kinematic tree and collision geometry come from the URDF (urdfdom); limits, home and gripper
+// numbers come from the robot's YAML (the single source both descriptions are generated from).
+#pragma once
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "core/pose.h"
+#include "robot/robot_spec.h"
+
+namespace mm {
+
+using VecX = Eigen::VectorXd;
+using Jacobian = Eigen::Matrix<double, 6, Eigen::Dynamic>;
+
+/// A collision primitive attached to a link.
+struct CollisionShape {
+  enum class Type { kSphere, kCylinder, kBox };
+  Type type = Type::kSphere;
+  Vec3 size = Vec3::Zero();  ///< sphere: (r,-,-); cylinder: (r, length, -) along z; box: full sizes [m]
+  int link = 0;              ///< index into RobotModel::links()
+  Pose T_link_shape = Pose::Identity();
+};
+
+/// Where a link sits: frame f (0 = base, k = after arm joint k), then a fixed transform, then an
+/// optional gripper (prismatic) joint whose value is the finger opening.
+struct LinkInfo {
+  std::string name;
+  int frame = 0;
+  Pose T_frame_joint = Pose::Identity();  ///< up to the link (or to its gripper joint)
+  Vec3 finger_axis = Vec3::Zero();        ///< non-zero for a finger: the opening moves it along this
+};
+
+class RobotModel {
+ public:
+  /// Loads robots/<name>/<name>.yaml and the URDF beside it. Throws InputError on bad files.
+  static RobotModel load(const std::string& spec_yaml);
+
+  int dof() const { return static_cast<int>(axis_.size()); }
+  const RobotSpec& spec() const { return spec_; }
+  const VecX& lower() const { return lower_; }    ///< [rad] (dim dof)
+  const VecX& upper() const { return upper_; }    ///< [rad]
+  const VecX& vmax() const { return vmax_; }      ///< [rad/s]
+  const VecX& amax() const { return amax_; }      ///< [rad/s^2]
+  const VecX& jmax() const { return jmax_; }      ///< [rad/s^3]
+  const VecX& home() const { return home_; }      ///< [rad]
+  const std::vector<std::string>& jointNames() const { return joint_names_; }
+  bool withinLimits(const VecX& q, double margin = 0.0) const;
+
+  /// T_base_tcp for joint configuration q (dim dof) [rad].
+  Pose fk(const VecX& q) const;
+  /// Frames 0..dof: T_base_frame[k] is the frame after joint k (0 = base). Resizes the output.
+  void frames(const VecX& q, std::vector<Pose>& T_base_frame) const;
+  /// Pose of every link (index as links()) for q and a finger opening [m] per finger.
+  void linkPoses(const VecX& q, double finger_opening, std::vector<Pose>& T_base_link) const;
+  /// Geometric Jacobian of the TCP in the base frame: rows (v; w), dim 6 x dof.
+  void jacobian(const VecX& q, Jacobian& J) const;
+
+  const std::vector<LinkInfo>& links() const { return links_; }
+  const std::vector<CollisionShape>& collisionShapes() const { return shapes_; }
+  int linkIndex(const std::string& name) const;  ///< -1 if absent
+  const Pose& T_flange_tcp() const { return T_last_tcp_; }
+
+ private:
+  RobotSpec spec_;
+  std::vector<std::string> joint_names_;
+  std::vector<Pose> T_pre_;   ///< fixed transform from frame k-1 to joint k's origin
+  std::vector<Vec3> axis_;    ///< joint axis in its own frame
+  Pose T_last_tcp_ = Pose::Identity();
+  VecX lower_, upper_, vmax_, amax_, jmax_, home_;
+  std::vector<LinkInfo> links_;
+  std::vector<CollisionShape> shapes_;
+};
+
+}  // namespace mm

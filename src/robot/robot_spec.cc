@@ -1,0 +1,168 @@
+#include "robot/robot_spec.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "core/error.h"
+
+namespace mm {
+namespace {
+
+struct Reader {
+  std::string file;
+  std::string at(const YAML::Node& n) const {
+    return file + ":" + std::to_string(n.Mark().line + 1) + ":" + std::to_string(n.Mark().column + 1);
+  }
+  YAML::Node require(const YAML::Node& map, const char* key, const YAML::Node& parent) const {
+    if (!map.IsMap()) throw InputError(at(parent), std::string("expected a map holding '") + key + "'");
+    if (!map[key]) throw InputError(at(parent), std::string("missing key '") + key + "'");
+    return map[key];
+  }
+  double number(const YAML::Node& map, const char* key) const {
+    YAML::Node n = require(map, key, map);
+    double v;
+    try {
+      v = n.as<double>();
+    } catch (const YAML::Exception&) {
+      throw InputError(at(n), std::string("'") + key + "' expects a number");
+    }
+    if (!std::isfinite(v)) throw InputError(at(n), std::string("'") + key + "' must be finite");
+    return v;
+  }
+  double positive(const YAML::Node& map, const char* key) const {
+    const double v = number(map, key);
+    if (v <= 0) throw InputError(at(map[key]), std::string("'") + key + "' must be > 0");
+    return v;
+  }
+  std::string text(const YAML::Node& map, const char* key) const {
+    YAML::Node n = require(map, key, map);
+    if (!n.IsScalar() || n.Scalar().empty())
+      throw InputError(at(n), std::string("'") + key + "' expects a non-empty string");
+    return n.Scalar();
+  }
+  std::array<double, 3> vec3(const YAML::Node& map, const char* key) const {
+    YAML::Node n = require(map, key, map);
+    if (!n.IsSequence() || n.size() != 3)
+      throw InputError(at(n), std::string("'") + key + "' expects a list of 3 numbers");
+    std::array<double, 3> v{};
+    for (size_t i = 0; i < 3; ++i) {
+      try {
+        v[i] = n[i].as<double>();
+      } catch (const YAML::Exception&) {
+        throw InputError(at(n[i]), std::string("'") + key + "' expects numbers");
+      }
+      if (!std::isfinite(v[i])) throw InputError(at(n[i]), std::string("'") + key + "' must be finite");
+    }
+    return v;
+  }
+};
+
+ShapeSpec readShape(const Reader& r, const YAML::Node& n) {
+  ShapeSpec s;
+  const std::string type = r.text(n, "type");
+  if (type == "capsule" || type == "cylinder") {
+    s.type = type == "capsule" ? ShapeSpec::Type::kCapsule : ShapeSpec::Type::kCylinder;
+    s.from = r.vec3(n, "from");
+    s.to = r.vec3(n, "to");
+    s.radius = r.positive(n, "radius");
+    const double len = std::hypot(s.to[0] - s.from[0], s.to[1] - s.from[1], s.to[2] - s.from[2]);
+    if (len < 1e-6) throw InputError(r.at(n), type + " needs distinct 'from' and 'to'");
+  } else if (type == "box") {
+    s.type = ShapeSpec::Type::kBox;
+    s.pos = r.vec3(n, "pos");
+    s.half = r.vec3(n, "half");
+    for (double h : s.half)
+      if (h <= 0) throw InputError(r.at(n["half"]), "box 'half' sizes must be > 0");
+  } else if (type == "sphere") {
+    s.type = ShapeSpec::Type::kSphere;
+    s.pos = r.vec3(n, "pos");
+    s.radius = r.positive(n, "radius");
+  } else {
+    throw InputError(r.at(n["type"]), "'type' expects capsule, cylinder, box or sphere, got '" + type + "'");
+  }
+  return s;
+}
+
+}  // namespace
+
+std::string RobotSpec::directory() const { return std::filesystem::path(file).parent_path().string(); }
+std::string RobotSpec::mjcfPath() const { return (std::filesystem::path(directory()) / (name + ".xml")).string(); }
+std::string RobotSpec::urdfPath() const { return (std::filesystem::path(directory()) / (name + ".urdf")).string(); }
+
+RobotSpec loadRobotSpec(const std::string& path) {
+  Reader r{path};
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    throw InputError(path, "cannot open file (expected a robot YAML)");
+  } catch (const YAML::Exception& e) {
+    throw InputError(path + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1),
+                     "malformed YAML: " + e.msg);
+  }
+  if (!root.IsMap()) throw InputError(path, "expected a YAML map describing a robot");
+  RobotSpec s;
+  s.file = path;
+  s.name = r.text(root, "name");
+  s.base_link = r.text(root, "base_link");
+  s.tip_link = r.text(root, "tip_link");
+  const YAML::Node joints = r.require(root, "joints", root);
+  if (!joints.IsSequence() || joints.size() < 1)
+    throw InputError(r.at(joints), "'joints' expects a list of joints");
+  for (const auto& j : joints) {
+    JointSpec js;
+    js.name = r.text(j, "name");
+    js.a = r.number(j, "a");
+    js.d = r.number(j, "d");
+    js.alpha = r.number(j, "alpha");
+    js.lower = r.number(j, "lower");
+    js.upper = r.number(j, "upper");
+    if (!(js.lower < js.upper)) throw InputError(r.at(j), "joint '" + js.name + "': 'lower' must be < 'upper'");
+    js.velocity = r.positive(j, "velocity");
+    js.acceleration = r.positive(j, "acceleration");
+    js.jerk = r.positive(j, "jerk");
+    js.effort = r.positive(j, "effort");
+    s.joints.push_back(js);
+  }
+  s.flange_d = r.number(root, "flange_d");
+  s.hand_yaw = r.number(root, "hand_yaw");
+  s.tcp_offset = r.number(root, "tcp_offset");
+  const YAML::Node home = r.require(root, "home", root);
+  if (!home.IsSequence() || home.size() != s.joints.size())
+    throw InputError(r.at(home), "'home' expects " + std::to_string(s.joints.size()) + " joint values");
+  for (size_t i = 0; i < home.size(); ++i) {
+    const double v = home[i].as<double>();
+    if (!(v >= s.joints[i].lower && v <= s.joints[i].upper))
+      throw InputError(r.at(home[i]), "'home' value " + std::to_string(v) + " is outside the limits of " + s.joints[i].name);
+    s.home.push_back(v);
+  }
+  s.damping = r.number(root, "damping");
+  s.armature = r.number(root, "armature");
+  const YAML::Node g = r.require(root, "gripper", root);
+  s.gripper.travel = r.positive(g, "travel");
+  s.gripper.max_force = r.positive(g, "max_force");
+  s.gripper.velocity = r.positive(g, "velocity");
+  s.gripper.finger_z = r.number(g, "finger_z");
+  s.gripper.pad_friction = r.positive(g, "pad_friction");
+  const YAML::Node links = r.require(root, "links", root);
+  if (!links.IsSequence() || links.size() != s.joints.size() + 4)
+    throw InputError(r.at(links), "'links' expects " + std::to_string(s.joints.size() + 4) +
+                                      " links: base, one per joint, hand, left finger, right finger");
+  for (const auto& l : links) {
+    LinkSpec ls;
+    ls.name = r.text(l, "name");
+    ls.mass = r.positive(l, "mass");
+    const YAML::Node shapes = r.require(l, "shapes", l);
+    if (!shapes.IsSequence() || shapes.size() == 0)
+      throw InputError(r.at(shapes), "'shapes' expects a list of collision primitives");
+    for (const auto& sh : shapes) ls.shapes.push_back(readShape(r, sh));
+    s.links.push_back(ls);
+  }
+  if (s.links.front().name != s.base_link)
+    throw InputError(r.at(links), "the first link must be the base link '" + s.base_link + "'");
+  return s;
+}
+
+}  // namespace mm

@@ -1,0 +1,168 @@
+// RobotModel (URDF via urdfdom, our FK) against MuJoCo's kinematics of the generated MJCF.
+#include "robot/robot_model.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <mujoco/mujoco.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/rng.h"
+#include "robot/description_writer.h"
+
+namespace mm {
+namespace {
+
+const std::string kSpec = "robots/panda/panda.yaml";
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+VecX randomConfig(const RobotModel& m, Rng& rng) {
+  VecX q(m.dof());
+  for (int i = 0; i < m.dof(); ++i) q[i] = rng.uniform(m.lower()[i], m.upper()[i]);
+  return q;
+}
+
+TEST(RobotDescription, CommittedFilesMatchTheGenerator) {
+  const RobotSpec spec = loadRobotSpec(kSpec);
+  EXPECT_EQ(slurp(spec.mjcfPath()), writeMjcf(spec)) << "run: build/gen_robot " << kSpec;
+  EXPECT_EQ(slurp(spec.urdfPath()), writeUrdf(spec)) << "run: build/gen_robot " << kSpec;
+}
+
+// 100 random configurations (seed 11): every link frame and the TCP of the URDF model agree with
+// MuJoCo's forward kinematics of the MJCF within 1e-9.
+TEST(RobotDescription, MjcfAndUrdfForwardKinematicsAgree) {
+  const RobotModel robot = RobotModel::load(kSpec);
+  char err[1000] = "";
+  mjModel* m = mj_loadXML(robot.spec().mjcfPath().c_str(), nullptr, err, sizeof err);
+  ASSERT_NE(m, nullptr) << err;
+  mjData* d = mj_makeData(m);
+  const int tcp = mj_name2id(m, mjOBJ_SITE, robot.spec().tip_link.c_str());
+  ASSERT_GE(tcp, 0);
+  Rng rng(11);
+  std::vector<Pose> links;
+  double worst = 0;
+  for (int trial = 0; trial < 100; ++trial) {
+    const VecX q = randomConfig(robot, rng);
+    const double opening = rng.uniform(0, robot.spec().gripper.travel);
+    for (int i = 0; i < robot.dof(); ++i) d->qpos[m->jnt_qposadr[mj_name2id(m, mjOBJ_JOINT, robot.jointNames()[i].c_str())]] = q[i];
+    d->qpos[m->jnt_qposadr[mj_name2id(m, mjOBJ_JOINT, "panda_finger_joint1")]] = opening;
+    d->qpos[m->jnt_qposadr[mj_name2id(m, mjOBJ_JOINT, "panda_finger_joint2")]] = opening;
+    mj_kinematics(m, d);
+    const Pose T = robot.fk(q);
+    for (int k = 0; k < 3; ++k) {
+      worst = std::max(worst, std::abs(T.translation()[k] - d->site_xpos[3 * tcp + k]));
+      for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(T.linear()(k, c) - d->site_xmat[9 * tcp + 3 * k + c]));
+    }
+    robot.linkPoses(q, opening, links);
+    for (size_t l = 0; l < robot.links().size(); ++l) {
+      const int b = mj_name2id(m, mjOBJ_BODY, robot.links()[l].name.c_str());
+      if (b < 0) continue;  // the TCP is a site in MJCF
+      for (int k = 0; k < 3; ++k) {
+        worst = std::max(worst, std::abs(links[l].translation()[k] - d->xpos[3 * b + k]));
+        for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(links[l].linear()(k, c) - d->xmat[9 * b + 3 * k + c]));
+      }
+    }
+  }
+  EXPECT_LT(worst, 1e-9);
+  mj_deleteData(d);
+  mj_deleteModel(m);
+}
+
+TEST(RobotModel, LimitsComeFromTheSpec) {
+  const RobotModel robot = RobotModel::load(kSpec);
+  ASSERT_EQ(robot.dof(), 7);
+  EXPECT_DOUBLE_EQ(robot.vmax()[0], 2.175);
+  EXPECT_DOUBLE_EQ(robot.vmax()[6], 2.61);
+  EXPECT_DOUBLE_EQ(robot.amax()[1], 7.5);
+  EXPECT_DOUBLE_EQ(robot.jmax()[6], 10000.0);
+  EXPECT_DOUBLE_EQ(robot.lower()[3], -3.0718);
+  EXPECT_DOUBLE_EQ(robot.upper()[5], 3.7525);
+  EXPECT_TRUE(robot.withinLimits(robot.home()));
+  // The Panda's "ready" pose puts the TCP 0.307 m ahead, 0.487 m up, pointing down.
+  const Pose T = robot.fk(robot.home());
+  EXPECT_NEAR(T.translation().x(), 0.3069, 1e-3);
+  EXPECT_NEAR(T.translation().y(), 0.0, 1e-9);
+  EXPECT_NEAR(T.translation().z(), 0.4869, 1e-3);
+  EXPECT_NEAR(T.linear()(2, 2), -1.0, 1e-6);
+}
+
+TEST(RobotModel, JacobianMatchesFiniteDifferences) {  // seed 5, 20 configurations
+  const RobotModel robot = RobotModel::load(kSpec);
+  Rng rng(5);
+  Jacobian J;
+  for (int t = 0; t < 20; ++t) {
+    const VecX q = randomConfig(robot, rng);
+    robot.jacobian(q, J);
+    const Pose T0 = robot.fk(q);
+    for (int i = 0; i < robot.dof(); ++i) {
+      VecX qh = q;
+      const double h = 1e-7;
+      qh[i] += h;
+      const Pose T1 = robot.fk(qh);
+      const Vec3 v = (T1.translation() - T0.translation()) / h;
+      const Eigen::AngleAxisd aa(T1.linear() * T0.linear().transpose());
+      const Vec3 w = aa.axis() * aa.angle() / h;
+      EXPECT_LT((v - J.block<3, 1>(0, i)).norm(), 1e-5);
+      EXPECT_LT((w - J.block<3, 1>(3, i)).norm(), 1e-5);
+    }
+  }
+}
+
+class BadRobotFiles : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() / ("mm_badrobot_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir_);
+    std::filesystem::copy_file("robots/panda/panda.yaml", dir_ / "panda.yaml");
+    std::filesystem::copy_file("robots/panda/panda.urdf", dir_ / "panda.urdf");
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  void replaceIn(const std::string& file, const std::string& from, const std::string& to) {
+    std::string s = slurp((dir_ / file).string());
+    const auto pos = s.find(from);
+    ASSERT_NE(pos, std::string::npos);
+    s.replace(pos, from.size(), to);
+    std::ofstream((dir_ / file).string()) << s;
+  }
+  std::string loadError() {
+    try {
+      RobotModel::load((dir_ / "panda.yaml").string());
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  }
+  std::filesystem::path dir_;
+};
+
+TEST_F(BadRobotFiles, MalformedUrdfNamesFileAndLine) {
+  replaceIn("panda.urdf", "<link name=\"panda_link3\">", "<link name=\"panda_link3\"");
+  EXPECT_THAT(loadError(), ::testing::MatchesRegex(".*panda\\.urdf:[0-9]+: malformed XML.*"));
+}
+
+TEST_F(BadRobotFiles, UrdfMissingJointIsRejected) {
+  replaceIn("panda.urdf", "<child link=\"panda_link4\"/>", "<child link=\"panda_nolink\"/>");
+  EXPECT_THAT(loadError(), ::testing::HasSubstr("panda.urdf: not a valid URDF"));
+}
+
+TEST_F(BadRobotFiles, SpecValueOutOfRangeNamesLine) {
+  replaceIn("panda.yaml", "velocity: 2.6100", "velocity: -1");
+  EXPECT_THAT(loadError(), ::testing::MatchesRegex(".*panda\\.yaml:[0-9]+:[0-9]+: 'velocity' must be > 0.*"));
+}
+
+TEST_F(BadRobotFiles, HomeOutsideLimits) {
+  replaceIn("panda.yaml", "home: [0.0, -0.785398, 0.0, -2.356194", "home: [0.0, -0.785398, 0.0, 0.5");
+  EXPECT_THAT(loadError(), ::testing::HasSubstr("outside the limits of panda_joint4"));
+}
+
+}  // namespace
+}  // namespace mm
