@@ -170,7 +170,11 @@ std::string writeMjcf(const RobotSpec& spec) {
   o << "    <exclude body1=\"" << spec.links[n].name << "\" body2=\"" << lf.name << "\"/>\n";
   o << "    <exclude body1=\"" << spec.links[n].name << "\" body2=\"" << rf.name << "\"/>\n";
   o << "    <exclude body1=\"" << lf.name << "\" body2=\"" << rf.name << "\"/>\n";
-  o << "  </contact>\n\n  <actuator>\n";
+  o << "  </contact>\n\n  <equality>\n";
+  // The fingers are coupled, as the hand's mechanism (and the URDF's mimic joint) couples them.
+  o << "    <joint name=\"" << spec.name << "_finger_coupling\" joint1=\"" << spec.name << "_finger_joint1\" joint2=\""
+    << spec.name << "_finger_joint2\" solref=\"0.005 1\"/>\n";
+  o << "  </equality>\n\n  <actuator>\n";
   for (const auto& j : spec.joints)
     o << "    <motor name=\"" << j.name << "\" joint=\"" << j.name << "\" ctrllimited=\"true\" ctrlrange=\""
       << num(-j.effort) << " " << num(j.effort) << "\"/>\n";

@@ -1,0 +1,49 @@
+// Joint trajectories sampled at the control period, their time parameterization within velocity
+// and acceleration limits, and a checker of those limits.
+#pragma once
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "robot/robot_model.h"
+
+namespace mm {
+
+/// Samples k = 0..N-1 at t = k * dt: positions [rad], velocities [rad/s], accelerations [rad/s^2].
+struct JointTrajectory {
+  double dt = 0.002;  ///< [s]
+  Eigen::MatrixXd q, qd, qdd;  ///< dim dof x N
+  int size() const { return static_cast<int>(q.cols()); }
+  double duration() const { return size() > 0 ? (size() - 1) * dt : 0.0; }
+  bool empty() const { return size() == 0; }
+  /// Appends `other` (its first sample must equal our last; it is dropped).
+  void append(const JointTrajectory& other);
+};
+
+struct LimitScaling {
+  double velocity = 1.0;      ///< fraction of the robot's velocity limits (0, 1]
+  double acceleration = 1.0;  ///< fraction of the acceleration limits (0, 1]
+};
+
+/// Time-parameterizes a joint path through `waypoints` (each dim dof) with one synchronized
+/// trapezoidal velocity profile per segment (all joints start and stop together; rest at each
+/// waypoint), the minimum duration within the scaled limits, rounded up to whole periods.
+JointTrajectory trapezoidalTrajectory(const std::vector<VecX>& waypoints, const VecX& vmax, const VecX& amax,
+                                      const LimitScaling& scale, double dt);
+
+/// Fills qd and qdd of a trajectory whose q is known, by central differences.
+void differentiate(JointTrajectory& traj);
+
+struct LimitReport {
+  bool ok = true;
+  double max_velocity_ratio = 0;      ///< max |qd| / vmax over samples and joints
+  double max_acceleration_ratio = 0;  ///< max |qdd| / amax
+  bool positions_ok = true;
+  std::string worst;                  ///< which joint, sample and quantity was worst
+};
+
+/// Checks every sample against position, velocity and acceleration limits (with a relative
+/// tolerance for rounding).
+LimitReport checkLimits(const JointTrajectory& traj, const RobotModel& robot, double tolerance = 1e-6);
+
+}  // namespace mm

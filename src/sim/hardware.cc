@@ -1,0 +1,143 @@
+#include "sim/hardware.h"
+
+#include <cmath>
+
+#include "sim/sim_world.h"
+
+namespace mm {
+namespace {
+
+class HardwareBase : public Hardware {
+ public:
+  HardwareBase(SimWorld& w, const RobotModel& r, std::vector<int> active)
+      : w_(w), robot_(r), active_(std::move(active)), q_cmd_(r.home()), qd_cmd_(VecX::Zero(r.dof())),
+        qdd_cmd_(VecX::Zero(r.dof())), grip_target_(r.spec().gripper.travel), grip_force_(r.spec().gripper.max_force) {
+    q_cmd_ = w.armPositions();
+  }
+  double time() const override { return w_.time(); }
+  double period() const override { return w_.timestep(); }
+  VecX jointPositions() const override { return w_.armPositions(); }
+  double gripperOpening() const override { return w_.fingerOpening(); }
+  void write(const VecX& q, const VecX& qd, const VecX& qdd) override { q_cmd_ = q, qd_cmd_ = qd, qdd_cmd_ = qdd; }
+  void writeGripper(double opening, double max_force) override { grip_target_ = opening, grip_force_ = max_force; }
+  std::vector<ObjectState> objects() const override {
+    std::vector<ObjectState> out;
+    for (int i : active_) out.push_back(w_.object(i));
+    return out;
+  }
+  ObjectState object(int i) const override { return w_.object(i); }
+  Pose tcpPose() const override { return w_.tcpPose(); }
+  int collisionEvents() const override { return w_.collisionEvents(); }
+  const std::vector<std::string>& collisionLog() const override { return w_.collisionLog(); }
+  bool unstable() const override { return w_.unstable(); }
+  const std::string& instabilityReason() const override { return w_.instabilityReason(); }
+
+ protected:
+  SimWorld& w_;
+  const RobotModel& robot_;
+  std::vector<int> active_;
+  VecX q_cmd_, qd_cmd_, qdd_cmd_;
+  double grip_target_, grip_force_;
+};
+
+class MujocoHardware final : public HardwareBase {
+ public:
+  using HardwareBase::HardwareBase;
+  const char* name() const override { return "mujoco"; }
+  VecX jointVelocities() const override { return w_.armVelocities(); }
+  Vec3 objectVelocity(int i) const override { return w_.objectVelocity(i); }
+  void step() override { w_.stepServo(q_cmd_, qd_cmd_, qdd_cmd_, grip_target_, grip_force_); }
+  void attach(int i, bool on) override { w_.setWeld(i, on); }
+};
+
+// Joints follow commands exactly; the fingers move at their speed limit and stop on an object;
+// an object moves only while it is held, and when released it comes to rest on the surface below.
+class MockHardware final : public HardwareBase {
+ public:
+  MockHardware(SimWorld& w, const RobotModel& r, std::vector<int> active) : HardwareBase(w, r, std::move(active)) {}
+  const char* name() const override { return "mock"; }
+  VecX jointVelocities() const override { return qd_cmd_; }
+  Vec3 objectVelocity(int i) const override { return i == held_ ? held_velocity_ : Vec3::Zero(); }
+  void attach(int, bool) override {}  // a held object already moves with the hand
+
+  void step() override {
+    const Pose T_before = w_.tcpPose();
+    w_.setArm(q_cmd_);
+    // Fingers.
+    const double dt = period();
+    const double v = robot_.spec().gripper.velocity;
+    double opening = w_.fingerOpening();
+    const double target = grip_target_;
+    opening = target > opening ? std::min(target, opening + v * dt) : std::max(target, opening - v * dt);
+    if (target < opening + 1e-12 && held_ < 0) {
+      // Closing: an object between the fingers stops them at its half width.
+      const int k = objectBetweenFingers();
+      if (k >= 0 && opening <= halfWidthAcrossFingers(k) + 1e-9) {
+        opening = halfWidthAcrossFingers(k);
+        held_ = k;
+        T_tcp_held_ = w_.tcpPose().inverse() * w_.object(k).T_world_object;
+      }
+    }
+    if (held_ >= 0 && target > opening) {  // opening releases
+      release();
+    }
+    if (held_ >= 0) opening = std::max(opening, halfWidthAcrossFingers(held_));
+    w_.setFingers(opening);
+    w_.stepKinematic();
+    if (held_ >= 0) {
+      const Pose T = w_.tcpPose() * T_tcp_held_;
+      held_velocity_ = (T.translation() - (T_before * T_tcp_held_).translation()) / dt;
+      w_.setObjectPose(held_, T);
+      w_.stepKinematic();
+      w_.setArm(q_cmd_);
+    }
+  }
+
+ private:
+  // The object whose center lies between the finger pads (within the pad depth), or -1.
+  int objectBetweenFingers() const {
+    const Pose T_tcp = w_.tcpPose();
+    for (int k : active_) {
+      const Vec3 p = T_tcp.inverse() * w_.object(k).T_world_object.translation();
+      if (std::abs(p.x()) < 0.012 && std::abs(p.z()) < 0.02 && std::abs(p.y()) < robot_.spec().gripper.travel) return k;
+    }
+    return -1;
+  }
+  double halfWidthAcrossFingers(int k) const {
+    const ObjectState o = w_.object(k);
+    const Vec3 y = w_.tcpPose().linear().col(1);
+    const Mat3 R = o.T_world_object.linear();
+    double h = 0;
+    for (int a = 0; a < 3; ++a) h += std::abs(y.dot(R.col(a))) * o.half_size[a];
+    return h;
+  }
+  void release() {
+    ObjectState o = w_.object(held_);
+    const double bottom = o.T_world_object.translation().z() - o.half_size.z();
+    (void)bottom;
+    // Falls straight down onto the first surface below its lowest point (it keeps its yaw).
+    const double support = w_.surfaceBelow(o.T_world_object.translation(), held_);
+    Pose T = o.T_world_object;
+    const double yaw = yawOf(T.linear());
+    T.linear() = rotZ(yaw);
+    T.translation().z() = support + o.half_size.z();
+    w_.setObjectPose(held_, T);
+    held_ = -1;
+    held_velocity_.setZero();
+  }
+
+  int held_ = -1;
+  Pose T_tcp_held_ = Pose::Identity();
+  Vec3 held_velocity_ = Vec3::Zero();
+};
+
+}  // namespace
+
+std::unique_ptr<Hardware> makeMujocoHardware(SimWorld& world, const RobotModel& robot, std::vector<int> active) {
+  return std::make_unique<MujocoHardware>(world, robot, std::move(active));
+}
+std::unique_ptr<Hardware> makeMockHardware(SimWorld& world, const RobotModel& robot, std::vector<int> active) {
+  return std::make_unique<MockHardware>(world, robot, std::move(active));
+}
+
+}  // namespace mm

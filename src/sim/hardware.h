@@ -1,0 +1,52 @@
+// The hardware interface the task code talks to, like ros2_control's read()/write() with a
+// position command interface: `mujoco` simulates the arm, `mock` follows commands exactly (like
+// mock_components/GenericSystem) and moves objects only when grasped. Task code is identical for
+// both; a real-robot backend would implement the same interface.
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/geometry.h"
+#include "robot/robot_model.h"
+
+namespace mm {
+
+class SimWorld;
+
+class Hardware {
+ public:
+  virtual ~Hardware() = default;
+  virtual const char* name() const = 0;
+  virtual double time() const = 0;    ///< [s] simulated time
+  virtual double period() const = 0;  ///< [s] control period (500 Hz)
+
+  virtual VecX jointPositions() const = 0;   ///< [rad] dim dof
+  virtual VecX jointVelocities() const = 0;  ///< [rad/s]
+  virtual double gripperOpening() const = 0; ///< [m] per finger
+  /// One control period's joint setpoint: position [rad] with velocity and acceleration feed-forward.
+  virtual void write(const VecX& q, const VecX& qd, const VecX& qdd) = 0;
+  /// Gripper goal: opening per finger [m] and the force limit [N].
+  virtual void writeGripper(double opening, double max_force) = 0;
+  /// Advances one control period.
+  virtual void step() = 0;
+
+  /// Weld-on-grasp (the source's attach plugin): fix object i to the hand, or release it.
+  virtual void attach(int i, bool on) = 0;
+
+  /// Ground truth, used by the ground-truth perception mode and by the evaluation.
+  virtual std::vector<ObjectState> objects() const = 0;
+  virtual ObjectState object(int i) const = 0;
+  virtual Vec3 objectVelocity(int i) const = 0;
+  virtual Pose tcpPose() const = 0;
+  virtual int collisionEvents() const = 0;
+  virtual const std::vector<std::string>& collisionLog() const = 0;
+  virtual bool unstable() const = 0;
+  virtual const std::string& instabilityReason() const = 0;
+};
+
+/// `active` lists the objects in play this trial (the others are parked off the table).
+std::unique_ptr<Hardware> makeMujocoHardware(SimWorld& world, const RobotModel& robot, std::vector<int> active);
+std::unique_ptr<Hardware> makeMockHardware(SimWorld& world, const RobotModel& robot, std::vector<int> active);
+
+}  // namespace mm

@@ -1,0 +1,379 @@
+#include "sim/sim_world.h"
+
+#include <mujoco/mujoco.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <mutex>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include "core/error.h"
+#include "sim/mjcf_check.h"
+
+namespace mm {
+namespace {
+
+thread_local std::string g_last_warning;
+
+// MuJoCo's default error handler waits on stdin and writes MUJOCO_LOG.TXT; ours throws instead.
+void onMujocoError(const char* msg) { throw std::runtime_error(std::string("MuJoCo error: ") + msg); }
+void onMujocoWarning(const char* msg) { g_last_warning = msg; }
+
+void installHandlers() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    mju_user_error = onMujocoError;
+    mju_user_warning = onMujocoWarning;
+  });
+}
+
+Pose poseOf(const mjtNum* pos, const mjtNum* mat) {
+  Pose T = Pose::Identity();
+  for (int r = 0; r < 3; ++r) {
+    T.translation()[r] = pos[r];
+    for (int c = 0; c < 3; ++c) T.linear()(r, c) = mat[3 * r + c];
+  }
+  return T;
+}
+
+}  // namespace
+
+struct SimWorld::Impl {
+  mjModel* m = nullptr;
+  mjData* d = nullptr;
+  int dof = 0;
+  std::vector<int> arm_qpos, arm_dof, arm_act;
+  std::vector<double> effort;
+  int finger_qpos[2] = {0, 0}, finger_dof[2] = {0, 0}, finger_act[2] = {0, 0};
+  int tcp_site = -1;
+  std::vector<int> obj_body, obj_qpos, obj_dof, obj_geom, obj_weld;
+  std::vector<Pose> obj_park;
+  std::vector<char> robot_geom, static_geom;
+  int robot_root = -1;
+  ServoGains gains;
+  double finger_ramp[2] = {0, 0};
+  double finger_vmax = 0.2;
+  // monitors
+  std::set<std::pair<int, int>> touching;
+  int collision_events = 0;
+  std::vector<std::string> collision_log;
+  bool unstable = false;
+  std::string instability;
+  // scratch
+  std::vector<mjtNum> scratch_a, scratch_b;
+
+  ~Impl() {
+    if (d) mj_deleteData(d);
+    if (m) mj_deleteModel(m);
+  }
+
+  void monitor() {
+    static const int kBad[] = {mjWARN_BADQPOS, mjWARN_BADQVEL, mjWARN_BADQACC, mjWARN_BADCTRL,
+                               mjWARN_CONTACTFULL, mjWARN_CNSTRFULL};
+    static const char* kNames[] = {"bad qpos", "bad qvel", "bad qacc", "bad ctrl", "contact buffer full",
+                                   "constraint buffer full"};
+    for (int k = 0; k < 6; ++k) {
+      if (d->warning[kBad[k]].number > 0 && !unstable) {
+        unstable = true;
+        std::ostringstream s;
+        s << "MuJoCo warning '" << kNames[k] << "' at t=" << d->time << " s";
+        if (!g_last_warning.empty()) s << ": " << g_last_warning;
+        instability = s.str();
+      }
+    }
+    std::set<std::pair<int, int>> now;
+    for (int i = 0; i < d->ncon; ++i) {
+      const mjContact& c = d->contact[i];
+      if (c.dist > -1e-4) continue;  // touching within 0.1 mm is not a collision
+      int r = -1, s = -1;
+      if (robot_geom[c.geom1] && static_geom[c.geom2]) r = c.geom1, s = c.geom2;
+      else if (robot_geom[c.geom2] && static_geom[c.geom1]) r = c.geom2, s = c.geom1;
+      if (r < 0) continue;
+      now.insert({r, s});
+      if (!touching.count({r, s})) {
+        ++collision_events;
+        std::ostringstream o;
+        o << mj_id2name(m, mjOBJ_GEOM, r) << " hit " << mj_id2name(m, mjOBJ_GEOM, s) << " at t=" << d->time;
+        if (collision_log.size() < 20) collision_log.push_back(o.str());
+      }
+    }
+    touching.swap(now);
+  }
+};
+
+SimWorld::SimWorld() : impl_(std::make_unique<Impl>()) {}
+SimWorld::~SimWorld() = default;
+
+std::unique_ptr<SimWorld> SimWorld::load(const std::string& scene_xml, const RobotModel& robot) {
+  installHandlers();
+  checkMjcf(scene_xml);
+  std::unique_ptr<SimWorld> w(new SimWorld());
+  Impl& I = *w->impl_;
+  char err[1024] = "";
+  try {
+    I.m = mj_loadXML(scene_xml.c_str(), nullptr, err, sizeof err);
+  } catch (const std::runtime_error& e) {
+    throw InputError(scene_xml, std::string("MuJoCo rejected the model: ") + e.what());
+  }
+  if (!I.m) throw InputError(scene_xml, std::string("MuJoCo rejected the model: ") + err);
+  I.d = mj_makeData(I.m);
+  mjModel* m = I.m;
+  const RobotSpec& spec = robot.spec();
+  auto need = [&](mjtObj type, const std::string& name, const char* what) {
+    const int id = mj_name2id(m, type, name.c_str());
+    if (id < 0) throw InputError(scene_xml, std::string("expected ") + what + " '" + name + "' (from " + spec.file + ")");
+    return id;
+  };
+  I.dof = robot.dof();
+  for (int i = 0; i < I.dof; ++i) {
+    const int j = need(mjOBJ_JOINT, robot.jointNames()[i], "a joint");
+    I.arm_qpos.push_back(m->jnt_qposadr[j]);
+    I.arm_dof.push_back(m->jnt_dofadr[j]);
+    I.arm_act.push_back(need(mjOBJ_ACTUATOR, robot.jointNames()[i], "an actuator"));
+    I.effort.push_back(spec.joints[i].effort);
+  }
+  for (int k = 0; k < 2; ++k) {
+    const std::string name = spec.name + "_finger_joint" + std::to_string(k + 1);
+    const int j = need(mjOBJ_JOINT, name, "a finger joint");
+    I.finger_qpos[k] = m->jnt_qposadr[j];
+    I.finger_dof[k] = m->jnt_dofadr[j];
+    I.finger_act[k] = need(mjOBJ_ACTUATOR, name, "a finger actuator");
+  }
+  I.finger_vmax = spec.gripper.velocity;
+  I.tcp_site = need(mjOBJ_SITE, spec.tip_link, "a TCP site");
+  I.robot_root = need(mjOBJ_BODY, spec.base_link, "a robot base body");
+  for (int k = 0;; ++k) {
+    const std::string name = "object_" + std::to_string(k);
+    const int b = mj_name2id(m, mjOBJ_BODY, name.c_str());
+    if (b < 0) break;
+    if (m->body_jntnum[b] != 1 || m->jnt_type[m->body_jntadr[b]] != mjJNT_FREE || m->body_geomnum[b] != 1 ||
+        m->geom_type[m->body_geomadr[b]] != mjGEOM_BOX)
+      throw InputError(scene_xml, "object body '" + name + "' must have one free joint and one box geom");
+    I.obj_body.push_back(b);
+    I.obj_qpos.push_back(m->jnt_qposadr[m->body_jntadr[b]]);
+    I.obj_dof.push_back(m->jnt_dofadr[m->body_jntadr[b]]);
+    I.obj_geom.push_back(m->body_geomadr[b]);
+    const int eq = mj_name2id(m, mjOBJ_EQUALITY, ("attach_" + std::to_string(k)).c_str());
+    I.obj_weld.push_back(eq);
+    const mjtNum* q = m->qpos0 + I.obj_qpos.back();
+    I.obj_park.push_back(makePose(Vec3(q[0], q[1], q[2]), Quat(q[3], q[4], q[5], q[6])));
+  }
+  if (I.obj_body.empty()) throw InputError(scene_xml, "expected object bodies named object_0, object_1, ...");
+  I.robot_geom.assign(m->ngeom, 0);
+  I.static_geom.assign(m->ngeom, 0);
+  for (int g = 0; g < m->ngeom; ++g) {
+    int b = m->geom_bodyid[g];
+    if (b == 0) {
+      I.static_geom[g] = m->geom_type[g] != mjGEOM_PLANE;  // the floor is out of reach
+      continue;
+    }
+    for (; b > 0; b = m->body_parentid[b])
+      if (b == I.robot_root) I.robot_geom[g] = 1;
+  }
+  I.scratch_a.resize(m->nv);
+  I.scratch_b.resize(m->nv);
+  w->reset(robot.home());
+  return w;
+}
+
+void SimWorld::reset(const VecX& q_arm) {
+  Impl& I = *impl_;
+  mj_resetData(I.m, I.d);
+  for (size_t k = 0; k < I.obj_weld.size(); ++k)
+    if (I.obj_weld[k] >= 0) I.m->eq_active[I.obj_weld[k]] = 0;
+  for (int i = 0; i < I.dof; ++i) I.d->qpos[I.arm_qpos[i]] = q_arm[i];
+  setFingers(I.m->jnt_range[2 * I.m->dof_jntid[I.finger_dof[0]] + 1]);
+  I.touching.clear();
+  I.collision_events = 0;
+  I.collision_log.clear();
+  I.unstable = false;
+  I.instability.clear();
+  g_last_warning.clear();
+  mj_forward(I.m, I.d);
+}
+
+double SimWorld::time() const { return impl_->d->time; }
+double SimWorld::timestep() const { return impl_->m->opt.timestep; }
+const ServoGains& SimWorld::gains() const { return impl_->gains; }
+
+VecX SimWorld::armPositions() const {
+  VecX q(impl_->dof);
+  for (int i = 0; i < impl_->dof; ++i) q[i] = impl_->d->qpos[impl_->arm_qpos[i]];
+  return q;
+}
+VecX SimWorld::armVelocities() const {
+  VecX v(impl_->dof);
+  for (int i = 0; i < impl_->dof; ++i) v[i] = impl_->d->qvel[impl_->arm_dof[i]];
+  return v;
+}
+void SimWorld::setArm(const VecX& q) {
+  for (int i = 0; i < impl_->dof; ++i) {
+    impl_->d->qpos[impl_->arm_qpos[i]] = q[i];
+    impl_->d->qvel[impl_->arm_dof[i]] = 0;
+  }
+}
+double SimWorld::fingerOpening() const {
+  return 0.5 * (impl_->d->qpos[impl_->finger_qpos[0]] + impl_->d->qpos[impl_->finger_qpos[1]]);
+}
+void SimWorld::setFingers(double opening) {
+  for (int k = 0; k < 2; ++k) {
+    impl_->d->qpos[impl_->finger_qpos[k]] = opening;
+    impl_->d->qvel[impl_->finger_dof[k]] = 0;
+    impl_->finger_ramp[k] = opening;
+  }
+}
+Pose SimWorld::tcpPose() const {
+  const int s = impl_->tcp_site;
+  return poseOf(impl_->d->site_xpos + 3 * s, impl_->d->site_xmat + 9 * s);
+}
+
+int SimWorld::numObjects() const { return static_cast<int>(impl_->obj_body.size()); }
+
+ObjectState SimWorld::object(int i) const {
+  const Impl& I = *impl_;
+  ObjectState o;
+  o.index = i;
+  o.name = mj_id2name(I.m, mjOBJ_BODY, I.obj_body[i]);
+  const mjtNum* q = I.d->qpos + I.obj_qpos[i];
+  o.T_world_object = makePose(Vec3(q[0], q[1], q[2]), Quat(q[3], q[4], q[5], q[6]));
+  const mjtNum* s = I.m->geom_size + 3 * I.obj_geom[i];
+  o.half_size = Vec3(s[0], s[1], s[2]);
+  return o;
+}
+
+Vec3 SimWorld::objectVelocity(int i) const {
+  const mjtNum* v = impl_->d->qvel + impl_->obj_dof[i];
+  return Vec3(v[0], v[1], v[2]);
+}
+
+void SimWorld::setObjectPose(int i, const Pose& T) {
+  mjtNum* q = impl_->d->qpos + impl_->obj_qpos[i];
+  const Quat r(T.linear());
+  q[0] = T.translation().x(), q[1] = T.translation().y(), q[2] = T.translation().z();
+  q[3] = r.w(), q[4] = r.x(), q[5] = r.y(), q[6] = r.z();
+  std::fill(impl_->d->qvel + impl_->obj_dof[i], impl_->d->qvel + impl_->obj_dof[i] + 6, 0.0);
+}
+
+void SimWorld::parkObject(int i) { setObjectPose(i, impl_->obj_park[i]); }
+
+double SimWorld::objectPenetration(int i) const {
+  const Impl& I = *impl_;
+  mj_fwdPosition(I.m, I.d);
+  double worst = 0;
+  for (int c = 0; c < I.d->ncon; ++c) {
+    const mjContact& con = I.d->contact[c];
+    if (con.geom1 == I.obj_geom[i] || con.geom2 == I.obj_geom[i]) worst = std::max(worst, -con.dist);
+  }
+  return worst;
+}
+
+double SimWorld::surfaceBelow(const Vec3& p, int exclude) const {
+  const Impl& I = *impl_;
+  mj_kinematics(I.m, I.d);
+  const mjtNum pnt[3] = {p.x(), p.y(), p.z()};
+  const mjtNum dir[3] = {0, 0, -1};
+  int geom = -1;
+  const int body_exclude = exclude >= 0 ? I.obj_body[exclude] : -1;
+  // Only static geoms and other objects count as support (group filter: all groups).
+  const mjtNum dist = mj_ray(I.m, I.d, pnt, dir, nullptr, 1, body_exclude, &geom);
+  if (dist < 0) return -1e9;
+  return p.z() - dist;
+}
+
+void SimWorld::stepServo(const VecX& q, const VecX& qd, const VecX& qdd, double finger_target, double finger_force) {
+  Impl& I = *impl_;
+  mjModel* m = I.m;
+  mjData* d = I.d;
+  mj_step1(m, d);  // positions, velocities, inertia and bias forces at the current state
+  // Computed torque: tau = M (qdd + kp e + kd edot) + bias - passive (joint damping), arm rows.
+  std::fill(I.scratch_a.begin(), I.scratch_a.end(), 0.0);
+  for (int i = 0; i < I.dof; ++i) {
+    const double e = q[i] - d->qpos[I.arm_qpos[i]];
+    const double ed = qd[i] - d->qvel[I.arm_dof[i]];
+    I.scratch_a[I.arm_dof[i]] = qdd[i] + I.gains.kp * e + I.gains.kd * ed;
+  }
+  mj_mulM(m, d, I.scratch_b.data(), I.scratch_a.data());
+  for (int i = 0; i < I.dof; ++i) {
+    const double tau = I.scratch_b[I.arm_dof[i]] + d->qfrc_bias[I.arm_dof[i]] - d->qfrc_passive[I.arm_dof[i]];
+    d->ctrl[I.arm_act[i]] = std::clamp(tau, -I.effort[i], I.effort[i]);
+  }
+  // Fingers: a target ramped at the finger speed limit, PD force clamped to the force limit.
+  const double dt = m->opt.timestep;
+  for (int k = 0; k < 2; ++k) {
+    const double step = I.finger_vmax * dt;
+    double& r = I.finger_ramp[k];
+    const double vref = finger_target > r + step ? I.finger_vmax : (finger_target < r - step ? -I.finger_vmax : 0.0);
+    r = vref != 0 ? r + vref * dt : finger_target;
+    const double f = I.gains.finger_kp * (r - d->qpos[I.finger_qpos[k]]) + I.gains.finger_kd * (vref - d->qvel[I.finger_dof[k]]);
+    d->ctrl[I.finger_act[k]] = std::clamp(f, -finger_force, finger_force);
+  }
+  try {
+    mj_step2(m, d);
+  } catch (const std::runtime_error& e) {
+    I.unstable = true;
+    I.instability = e.what();
+    return;
+  }
+  I.monitor();  // contacts found by this step's collision pass (state at the step's start)
+}
+
+void SimWorld::stepKinematic() {
+  Impl& I = *impl_;
+  I.d->time += I.m->opt.timestep;
+  mj_fwdPosition(I.m, I.d);
+  I.monitor();
+}
+
+void SimWorld::setWeld(int i, bool on) {
+  Impl& I = *impl_;
+  const int eq = I.obj_weld[i];
+  if (eq < 0) return;
+  if (on) {
+    // MuJoCo's weld relpose is the pose of body2 (the object) in body1 (the hand).
+    mj_kinematics(I.m, I.d);
+    const int b1 = I.m->eq_obj1id[eq], b2 = I.m->eq_obj2id[eq];
+    const Pose T1 = poseOf(I.d->xpos + 3 * b1, I.d->xmat + 9 * b1);
+    const Pose T2 = poseOf(I.d->xpos + 3 * b2, I.d->xmat + 9 * b2);
+    const Pose T12 = T1.inverse() * T2;
+    const Quat q(T12.linear());
+    mjtNum* data = I.m->eq_data + mjNEQDATA * eq;
+    data[0] = data[1] = data[2] = 0;
+    data[3] = T12.translation().x(), data[4] = T12.translation().y(), data[5] = T12.translation().z();
+    data[6] = q.w(), data[7] = q.x(), data[8] = q.y(), data[9] = q.z();
+    data[10] = 1;
+  }
+  I.m->eq_active[eq] = on ? 1 : 0;
+}
+
+std::vector<Obstacle> SimWorld::staticObstacles() const {
+  const Impl& I = *impl_;
+  mj_kinematics(I.m, I.d);
+  std::vector<Obstacle> out;
+  for (int g = 0; g < I.m->ngeom; ++g) {
+    if (!I.static_geom[g]) continue;
+    Obstacle o;
+    const mjtNum* s = I.m->geom_size + 3 * g;
+    switch (I.m->geom_type[g]) {
+      case mjGEOM_BOX: o.type = Obstacle::Type::kBox; o.size = Vec3(s[0], s[1], s[2]); break;
+      case mjGEOM_SPHERE: o.type = Obstacle::Type::kSphere; o.size = Vec3(s[0], 0, 0); break;
+      case mjGEOM_CYLINDER: o.type = Obstacle::Type::kCylinder; o.size = Vec3(s[0], s[1], 0); break;
+      case mjGEOM_CAPSULE: o.type = Obstacle::Type::kCapsule; o.size = Vec3(s[0], s[1], 0); break;
+      default: continue;  // planes, meshes: not exported
+    }
+    o.T_world = poseOf(I.d->geom_xpos + 3 * g, I.d->geom_xmat + 9 * g);
+    const char* name = mj_id2name(I.m, mjOBJ_GEOM, g);
+    o.name = name ? name : "geom" + std::to_string(g);
+    out.push_back(o);
+  }
+  return out;
+}
+
+int SimWorld::collisionEvents() const { return impl_->collision_events; }
+const std::vector<std::string>& SimWorld::collisionLog() const { return impl_->collision_log; }
+bool SimWorld::unstable() const { return impl_->unstable; }
+const std::string& SimWorld::instabilityReason() const { return impl_->instability; }
+
+}  // namespace mm

@@ -1,0 +1,81 @@
+// SimWorld: one MuJoCo model + data for one worker (the model is the robot included in a scene).
+// Steps the physics with a joint servo and finger force control, or updates it kinematically for
+// the mock hardware. Watches contacts (robot vs table and bins) and MuJoCo's instability warnings.
+// MuJoCo stays inside sim_world.cc.
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/geometry.h"
+#include "robot/robot_model.h"
+
+namespace mm {
+
+struct ServoGains {
+  double kp = 400.0;   ///< [1/s^2] joint position gain of the computed-torque servo
+  double kd = 40.0;    ///< [1/s] joint velocity gain
+  double finger_kp = 4000.0;  ///< [N/m]
+  double finger_kd = 40.0;    ///< [N s/m]
+};
+
+class SimWorld {
+ public:
+  /// Checks and loads a scene MJCF that includes the robot. Throws InputError for bad files or a
+  /// scene that lacks the robot's joints, actuators, TCP site or objects named object_<k>.
+  static std::unique_ptr<SimWorld> load(const std::string& scene_xml, const RobotModel& robot);
+  ~SimWorld();
+  SimWorld(const SimWorld&) = delete;
+  SimWorld& operator=(const SimWorld&) = delete;
+
+  /// Back to the model's initial state, arm at q (dim dof), fingers open, monitors cleared.
+  void reset(const VecX& q_arm);
+  double time() const;        ///< simulated time [s]
+  double timestep() const;    ///< [s]
+
+  // Arm and fingers.
+  VecX armPositions() const;
+  VecX armVelocities() const;
+  void setArm(const VecX& q);      ///< kinematic: position set, velocity zeroed
+  double fingerOpening() const;    ///< mean of the two fingers [m]
+  void setFingers(double opening); ///< kinematic
+  Pose tcpPose() const;            ///< T_world_tcp
+
+  // Objects (a fixed pool; inactive ones are parked off the table).
+  int numObjects() const;
+  ObjectState object(int i) const;
+  Vec3 objectVelocity(int i) const;     ///< linear [m/s]
+  void setObjectPose(int i, const Pose& T_world_object);  ///< zero velocity
+  void parkObject(int i);
+  /// Deepest penetration [m, >= 0] between object i and anything else.
+  double objectPenetration(int i) const;
+  /// Height [m] of the first surface below point p, ignoring object `exclude` (-1: none).
+  double surfaceBelow(const Vec3& p, int exclude) const;
+
+  /// Advances one timestep with the arm servoed to (q, qd, qdd) by computed torque (inverse
+  /// dynamics feed-forward + PD, clamped to the effort limits) and each finger force-controlled
+  /// toward `finger_target` [m] with at most `finger_force` [N].
+  void stepServo(const VecX& q, const VecX& qd, const VecX& qdd, double finger_target, double finger_force);
+  /// Advances time without dynamics: positions as set, contacts recomputed (mock hardware).
+  void stepKinematic();
+
+  /// Weld object i to the hand in its current relative pose (weld-on-grasp), or release it.
+  void setWeld(int i, bool on);
+
+  /// Static obstacles as the planner should know them (the world body's geoms: table, bins, tray).
+  std::vector<Obstacle> staticObstacles() const;
+
+  int collisionEvents() const;                 ///< onsets of robot vs table/bin/tray contact
+  const std::vector<std::string>& collisionLog() const;
+  bool unstable() const;                       ///< MuJoCo flagged a bad state
+  const std::string& instabilityReason() const;
+
+  const ServoGains& gains() const;
+
+ private:
+  SimWorld();
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mm
