@@ -1,0 +1,40 @@
+// Straight-line Cartesian motion of the TCP (approach, lift, place, retreat), by IK at small steps
+// from the current configuration, and its time parameterization.
+#pragma once
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "planning/collision.h"
+#include "planning/trajectory.h"
+
+namespace mm {
+
+/// IK callback: solve for `target` near `seed`; return false when there is no solution.
+using IkFunction = std::function<bool(const Pose& target, const VecX& seed, VecX& out)>;
+
+struct CartesianOptions {
+  double step = 0.005;          ///< [m] Cartesian spacing of waypoints
+  double max_joint_step = 0.1;  ///< [rad] larger jumps between waypoints mean a branch flip
+  double speed = 0.2;           ///< [m/s] TCP speed limit
+  double acceleration = 1.0;    ///< [m/s^2] TCP acceleration limit
+};
+
+struct CartesianPath {
+  bool ok = false;
+  std::vector<VecX> waypoints;
+  std::vector<double> cartesian_length;  ///< [m] length of each segment
+  std::string reason;
+};
+
+/// From configuration q_start (whose TCP pose is the line's start) to T_goal, position linear and
+/// orientation slerped. Each waypoint is IK-solved from the previous one and collision-checked.
+CartesianPath planCartesianLine(const RobotModel& robot, CollisionChecker& checker, const VecX& q_start,
+                                const Pose& T_goal, const IkFunction& ik, const CartesianOptions& options);
+
+/// One trapezoid along the path's arc length, as fast as the scaled joint limits and the TCP
+/// speed/acceleration limits allow; samples checked and slowed down until within the limits.
+JointTrajectory cartesianTrajectory(const RobotModel& robot, const CartesianPath& path, const LimitScaling& scale,
+                                    const CartesianOptions& options, double dt);
+
+}  // namespace mm

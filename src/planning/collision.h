@@ -1,0 +1,44 @@
+// Collision checking of robot configurations against the planning scene (the world as the planner
+// knows it: static obstacles exported from the scene plus perceived objects), padded, and against
+// the robot itself. FCL is the reference implementation; FCL headers stay in collision_fcl.cc.
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/geometry.h"
+#include "robot/robot_model.h"
+
+namespace mm {
+
+/// The world as the planner knows it (MoveIt's PlanningScene, reduced to what we need).
+struct PlanningScene {
+  std::vector<Obstacle> obstacles;
+  /// An object held in the hand: a box with half sizes `half`, at T_tcp_object from the TCP.
+  bool has_attached = false;
+  Vec3 attached_half = Vec3::Zero();
+  Pose T_tcp_attached = Pose::Identity();
+  double finger_opening = 0.04;  ///< [m] per finger, for the finger shapes
+  /// Names of obstacles not to check (e.g. the object being grasped during approach).
+  std::vector<std::string> ignore;
+};
+
+class CollisionChecker {
+ public:
+  virtual ~CollisionChecker() = default;
+  /// True when q (dim dof) is within joint limits and collision-free.
+  virtual bool isValid(const VecX& q) = 0;
+  /// Name of the first colliding pair found by the last invalid isValid() call.
+  virtual std::string lastCollision() const = 0;
+  long checks() const { return checks_; }
+
+ protected:
+  long checks_ = 0;
+};
+
+/// FCL checker. `padding` [m] inflates the robot's shapes against the world (not against itself).
+/// Self-collision skips pairs of links on the same or neighbouring frames and pairs that touch in
+/// the home configuration (as MoveIt's setup assistant's "adjacent" and "default" rules).
+std::unique_ptr<CollisionChecker> makeFclChecker(const RobotModel& robot, const PlanningScene& scene, double padding);
+
+}  // namespace mm

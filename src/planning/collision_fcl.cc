@@ -1,0 +1,171 @@
+#include <fcl/fcl.h>
+
+#include "core/error.h"
+#include "planning/collision.h"
+
+namespace mm {
+namespace {
+
+using Geom = std::shared_ptr<fcl::CollisionGeometryd>;
+
+fcl::Transform3d toFcl(const Pose& T) {
+  fcl::Transform3d X = fcl::Transform3d::Identity();
+  X.linear() = T.linear();
+  X.translation() = T.translation();
+  return X;
+}
+
+struct Body {
+  Geom geom;
+  Pose T_local = Pose::Identity();  // shape in its link (robot) or world (obstacle)
+  int link = -1;
+  double bound = 0;  // bounding sphere radius about the shape origin
+  std::string name;
+};
+
+Body robotShape(const CollisionShape& s, double pad) {
+  Body b;
+  b.link = s.link;
+  b.T_local = s.T_link_shape;
+  switch (s.type) {
+    case CollisionShape::Type::kSphere:
+      b.geom = std::make_shared<fcl::Sphered>(s.size.x() + pad);
+      b.bound = s.size.x() + pad;
+      break;
+    case CollisionShape::Type::kCylinder:
+      b.geom = std::make_shared<fcl::Cylinderd>(s.size.x() + pad, s.size.y() + 2 * pad);
+      b.bound = std::hypot(s.size.x() + pad, s.size.y() / 2 + pad);
+      break;
+    case CollisionShape::Type::kBox: {
+      const Vec3 full = s.size + Vec3::Constant(2 * pad);
+      b.geom = std::make_shared<fcl::Boxd>(full);
+      b.bound = full.norm() / 2;
+      break;
+    }
+  }
+  return b;
+}
+
+Body obstacleShape(const Obstacle& o) {
+  Body b;
+  b.T_local = o.T_world;
+  b.name = o.name;
+  switch (o.type) {
+    case Obstacle::Type::kBox:
+      b.geom = std::make_shared<fcl::Boxd>(2 * o.size);
+      b.bound = o.size.norm();
+      break;
+    case Obstacle::Type::kSphere:
+      b.geom = std::make_shared<fcl::Sphered>(o.size.x());
+      b.bound = o.size.x();
+      break;
+    case Obstacle::Type::kCylinder:
+      b.geom = std::make_shared<fcl::Cylinderd>(o.size.x(), 2 * o.size.y());
+      b.bound = std::hypot(o.size.x(), o.size.y());
+      break;
+    case Obstacle::Type::kCapsule:
+      b.geom = std::make_shared<fcl::Capsuled>(o.size.x(), 2 * o.size.y());
+      b.bound = o.size.x() + o.size.y();
+      break;
+  }
+  return b;
+}
+
+bool collide(const Body& a, const Pose& Ta, const Body& b, const Pose& Tb) {
+  if ((Ta.translation() - Tb.translation()).norm() > a.bound + b.bound) return false;
+  fcl::CollisionRequestd req;
+  fcl::CollisionResultd res;
+  fcl::collide(a.geom.get(), toFcl(Ta), b.geom.get(), toFcl(Tb), req, res);
+  return res.isCollision();
+}
+
+class FclChecker final : public CollisionChecker {
+ public:
+  FclChecker(const RobotModel& robot, const PlanningScene& scene, double pad) : robot_(robot), scene_(scene) {
+    for (const auto& s : robot.collisionShapes()) {
+      padded_.push_back(robotShape(s, pad));
+      bare_.push_back(robotShape(s, 0.0));
+    }
+    for (const auto& o : scene.obstacles) {
+      if (std::find(scene.ignore.begin(), scene.ignore.end(), o.name) != scene.ignore.end()) continue;
+      world_.push_back(obstacleShape(o));
+    }
+    hand_ = robot.linkIndex(robot.spec().links[robot.dof() + 1].name);
+    MM_DEMAND(hand_ >= 0);
+    if (scene.has_attached) {
+      Obstacle box;
+      box.size = scene.attached_half + Vec3::Constant(pad);
+      attached_ = obstacleShape(box);
+      attached_.name = "held object";
+      // Pose relative to the hand link: T_hand_tcp * T_tcp_object.
+      const Pose T_hand_tcp = makePose(Vec3(0, 0, robot.spec().tcp_offset), Mat3::Identity());
+      attached_.T_local = T_hand_tcp * scene.T_tcp_attached;
+    }
+    // Self-collision pairs: links more than one frame apart that do not touch at home.
+    const auto& links = robot.links();
+    std::vector<Pose> T;
+    robot.linkPoses(robot.home(), scene.finger_opening, T);
+    for (size_t i = 0; i < bare_.size(); ++i)
+      for (size_t j = i + 1; j < bare_.size(); ++j) {
+        const int li = bare_[i].link, lj = bare_[j].link;
+        if (li == lj || std::abs(links[li].frame - links[lj].frame) <= 1) continue;
+        if (collide(bare_[i], T[li] * bare_[i].T_local, bare_[j], T[lj] * bare_[j].T_local)) continue;
+        self_pairs_.push_back({static_cast<int>(i), static_cast<int>(j)});
+      }
+  }
+
+  bool isValid(const VecX& q) override {
+    ++checks_;
+    if (!robot_.withinLimits(q)) {
+      last_ = "joint limits";
+      return false;
+    }
+    robot_.linkPoses(q, scene_.finger_opening, T_);
+    const auto& links = robot_.links();
+    for (size_t i = 0; i < padded_.size(); ++i) {
+      const Body& b = padded_[i];
+      if (links[b.link].frame == 0) continue;  // the base stands on the table
+      const Pose Tb = T_[b.link] * b.T_local;
+      for (const Body& o : world_)
+        if (collide(b, Tb, o, o.T_local)) {
+          last_ = links[b.link].name + " / " + o.name;
+          return false;
+        }
+    }
+    if (scene_.has_attached) {
+      const Pose Ta = T_[hand_] * attached_.T_local;
+      for (const Body& o : world_)
+        if (collide(attached_, Ta, o, o.T_local)) {
+          last_ = "held object / " + o.name;
+          return false;
+        }
+    }
+    for (const auto& [i, j] : self_pairs_) {
+      const Body &a = bare_[i], &b = bare_[j];
+      if (collide(a, T_[a.link] * a.T_local, b, T_[b.link] * b.T_local)) {
+        last_ = links[a.link].name + " / " + links[b.link].name;
+        return false;
+      }
+    }
+    return true;
+  }
+  std::string lastCollision() const override { return last_; }
+
+ private:
+  const RobotModel& robot_;
+  PlanningScene scene_;
+  std::vector<Body> padded_, bare_, world_;
+  Body attached_;
+  int hand_ = -1;
+  std::vector<std::pair<int, int>> self_pairs_;
+  std::vector<Pose> T_;
+  std::string last_;
+};
+
+}  // namespace
+
+std::unique_ptr<CollisionChecker> makeFclChecker(const RobotModel& robot, const PlanningScene& scene, double padding) {
+  return std::make_unique<FclChecker>(robot, scene, padding);
+}
+
+}  // namespace mm

@@ -1,0 +1,135 @@
+#include "planning/planner.h"
+
+#include <ompl/base/SpaceInformation.h>
+#include <ompl/base/spaces/RealVectorStateSpace.h>
+#include <ompl/geometric/PathGeometric.h>
+#include <ompl/geometric/PathSimplifier.h>
+#include <ompl/geometric/planners/rrt/RRTConnect.h>
+#include <ompl/util/Console.h>
+
+#include <chrono>
+#include <mutex>
+
+#include "core/rng.h"
+
+namespace mm {
+namespace ob = ompl::base;
+namespace og = ompl::geometric;
+
+namespace {
+
+// OMPL's instance RNGs draw their seeds from one global generator in creation order, which would
+// tie results to thread scheduling; these subclasses seed each instance from our stream instead.
+class SeededSampler : public ob::RealVectorStateSampler {
+ public:
+  SeededSampler(const ob::StateSpace* space, uint32_t seed) : ob::RealVectorStateSampler(space) {
+    rng_.setLocalSeed(seed);
+  }
+};
+class SeededRRTConnect : public og::RRTConnect {
+ public:
+  SeededRRTConnect(const ob::SpaceInformationPtr& si, uint32_t seed) : og::RRTConnect(si) { rng_.setLocalSeed(seed); }
+};
+class SeededSimplifier : public og::PathSimplifier {
+ public:
+  SeededSimplifier(const ob::SpaceInformationPtr& si, uint32_t seed) : og::PathSimplifier(si) { rng_.setLocalSeed(seed); }
+};
+
+double seconds(std::chrono::steady_clock::time_point a) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count();
+}
+
+}  // namespace
+
+bool segmentValid(CollisionChecker& checker, const VecX& a, const VecX& b, double resolution) {
+  const double len = (b - a).norm();
+  const int n = std::max(1, static_cast<int>(std::ceil(len / resolution)));
+  for (int i = 1; i <= n; ++i)
+    if (!checker.isValid(a + (b - a) * (static_cast<double>(i) / n))) return false;
+  return true;
+}
+
+PlanResult planJointPath(const RobotModel& robot, CollisionChecker& checker, const VecX& start, const VecX& goal,
+                         uint64_t seed, const PlannerOptions& o) {
+  static std::once_flag quiet;
+  std::call_once(quiet, [] { ompl::msg::setLogLevel(ompl::msg::LOG_WARN); });
+  PlanResult r;
+  const long checks0 = checker.checks();
+  if (!checker.isValid(start)) {
+    r.reason = "start state invalid (" + checker.lastCollision() + ")";
+    return r;
+  }
+  if (!checker.isValid(goal)) {
+    r.reason = "goal state invalid (" + checker.lastCollision() + ")";
+    return r;
+  }
+  if (o.planner != "RRTConnect") {
+    r.reason = "unknown planner '" + o.planner + "'";
+    return r;
+  }
+  const int n = robot.dof();
+  auto space = std::make_shared<ob::RealVectorStateSpace>(n);
+  ob::RealVectorBounds bounds(n);
+  for (int i = 0; i < n; ++i) bounds.setLow(i, robot.lower()[i]), bounds.setHigh(i, robot.upper()[i]);
+  space->setBounds(bounds);
+  Rng rng(seed);
+  const uint32_t sampler_seed = rng.seed32();
+  space->setStateSamplerAllocator([sampler_seed, k = 0u](const ob::StateSpace* s) mutable {
+    return std::make_shared<SeededSampler>(s, sampler_seed + 7919u * k++);
+  });
+  auto si = std::make_shared<ob::SpaceInformation>(space);
+  VecX qs(n);
+  si->setStateValidityChecker([&](const ob::State* st) {
+    const double* v = st->as<ob::RealVectorStateSpace::StateType>()->values;
+    for (int i = 0; i < n; ++i) qs[i] = v[i];
+    return checker.isValid(qs);
+  });
+  si->setStateValidityCheckingResolution(o.resolution / space->getMaximumExtent());
+  si->setup();
+  auto pdef = std::make_shared<ob::ProblemDefinition>(si);
+  ob::ScopedState<> s(space), g(space);
+  for (int i = 0; i < n; ++i) s[i] = start[i], g[i] = goal[i];
+  pdef->setStartAndGoalStates(s, g);
+  auto planner = std::make_shared<SeededRRTConnect>(si, rng.seed32());
+  planner->setProblemDefinition(pdef);
+  planner->setup();
+  const auto t0 = std::chrono::steady_clock::now();
+  const ob::PlannerStatus status = planner->solve(ob::timedPlannerTerminationCondition(o.time_limit));
+  r.plan_seconds = seconds(t0);
+  if (status != ob::PlannerStatus::EXACT_SOLUTION) {
+    r.hit_time_limit = status == ob::PlannerStatus::TIMEOUT || r.plan_seconds >= o.time_limit;
+    r.reason = std::string("planner ") + o.planner + ": " + status.asString();
+    r.collision_checks = checker.checks() - checks0;
+    return r;
+  }
+  auto& path = static_cast<og::PathGeometric&>(*pdef->getSolutionPath());
+  if (o.simplify) {
+    const auto t1 = std::chrono::steady_clock::now();
+    SeededSimplifier simp(si, rng.seed32());
+    simp.reduceVertices(path);
+    simp.shortcutPath(path, o.simplify_steps);
+    simp.reduceVertices(path);
+    simp.collapseCloseVertices(path);
+    r.simplify_seconds = seconds(t1);
+  }
+  for (size_t k = 0; k < path.getStateCount(); ++k) {
+    const double* v = path.getState(k)->as<ob::RealVectorStateSpace::StateType>()->values;
+    r.path.push_back(Eigen::Map<const VecX>(v, n));
+  }
+  r.path.front() = start;  // exact end points (OMPL copies them, this guards rounding)
+  r.path.back() = goal;
+  for (size_t k = 1; k < r.path.size(); ++k) r.length += (r.path[k] - r.path[k - 1]).norm();
+  // Every edge must hold at our resolution, whatever the simplifier did.
+  for (size_t k = 1; k < r.path.size(); ++k)
+    if (!segmentValid(checker, r.path[k - 1], r.path[k], o.resolution)) {
+      r.path.clear();
+      r.reason = "simplified path failed re-validation (" + checker.lastCollision() + ")";
+      r.collision_checks = checker.checks() - checks0;
+      return r;
+    }
+  r.ok = true;
+  r.collision_checks = checker.checks() - checks0;
+  return r;
+}
+
+}  // namespace mm

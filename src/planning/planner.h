@@ -1,0 +1,39 @@
+// Joint-space motion planning with OMPL, seeded from our RNG streams so the same problem and seed
+// give the same path whatever thread runs it. OMPL headers stay in planner.cc.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "planning/collision.h"
+#include "robot/robot_model.h"
+
+namespace mm {
+
+struct PlannerOptions {
+  std::string planner = "RRTConnect";
+  double time_limit = 5.0;        ///< [s] wall-clock safety cap; reaching it is recorded
+  double resolution = 0.02;       ///< [rad] edge validation step (joint-space distance)
+  bool simplify = true;           ///< shortcut and vertex reduction after planning
+  int simplify_steps = 100;       ///< shortcutting attempts
+};
+
+struct PlanResult {
+  bool ok = false;
+  std::vector<VecX> path;   ///< waypoints including start and goal
+  std::string reason;       ///< why it failed
+  double plan_seconds = 0;      ///< wall time of the planner
+  double simplify_seconds = 0;  ///< wall time of the simplifier
+  long collision_checks = 0;
+  bool hit_time_limit = false;
+  double length = 0;        ///< joint-space path length [rad]
+};
+
+/// Plans from `start` to `goal` (both dim dof). A start or goal in collision fails at once with
+/// the colliding pair named; the goal is never moved.
+PlanResult planJointPath(const RobotModel& robot, CollisionChecker& checker, const VecX& start, const VecX& goal,
+                         uint64_t seed, const PlannerOptions& options);
+
+/// True when the straight joint-space segment a-b is valid at the given resolution [rad].
+bool segmentValid(CollisionChecker& checker, const VecX& a, const VecX& b, double resolution);
+
+}  // namespace mm
