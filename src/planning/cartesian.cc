@@ -14,6 +14,8 @@ CartesianPath planCartesianLine(const RobotModel& robot, CollisionChecker& check
   const double ang = angleBetween(T0.linear(), T_goal.linear());
   const int n = std::max(1, static_cast<int>(std::ceil(std::max(dist / o.step, ang / 0.05))));
   const Quat q0(T0.linear()), q1(T_goal.linear());
+  p.T_start = T0;
+  p.T_goal = T_goal;
   p.waypoints.push_back(q_start);
   VecX q = q_start, next;
   for (int i = 1; i <= n; ++i) {
@@ -39,61 +41,50 @@ CartesianPath planCartesianLine(const RobotModel& robot, CollisionChecker& check
   return p;
 }
 
-JointTrajectory cartesianTrajectory(const RobotModel& robot, const CartesianPath& path, const LimitScaling& scale,
-                                    const CartesianOptions& o, double dt) {
+JointTrajectory cartesianTrajectory(const RobotModel& robot, const CartesianPath& path, const IkFunction& ik,
+                                    const LimitScaling& scale, const CartesianOptions& o, double dt) {
   MM_DEMAND(path.ok && path.waypoints.size() >= 2);
-  const auto& w = path.waypoints;
-  const int m = static_cast<int>(w.size()) - 1;
-  std::vector<double> s(m + 1, 0.0);  // joint-space arc length at each waypoint
-  double v_s = INFINITY, a_s = INFINITY;
-  for (int i = 0; i < m; ++i) {
-    const VecX d = w[i + 1] - w[i];
-    const double ds = std::max(d.norm(), 1e-12);
-    s[i + 1] = s[i] + ds;
-    for (int j = 0; j < robot.dof(); ++j) {
-      const double dir = std::abs(d[j]) / ds;  // |dq_j/ds|
-      if (dir > 0) {
-        v_s = std::min(v_s, robot.vmax()[j] * scale.velocity / dir);
-        a_s = std::min(a_s, robot.amax()[j] * scale.acceleration / dir);
-      }
-    }
-    const double ratio = path.cartesian_length[i] / ds;  // TCP metres per joint-space radian
-    if (ratio > 0) {
-      v_s = std::min(v_s, o.speed / ratio);
-      a_s = std::min(a_s, o.acceleration / ratio);
-    }
-  }
-  const double S = s[m];
+  const Vec3 p0 = path.T_start.translation(), p1 = path.T_goal.translation();
+  const Quat q0(path.T_start.linear()), q1(path.T_goal.linear());
+  const double L = (p1 - p0).norm();
+  const double ang = angleBetween(path.T_start.linear(), path.T_goal.linear());
+  // Distance along the line, with rotation counted as 0.1 m per rad so pure turns move too.
+  const double S = std::max(L, 0.1 * ang);
+  double v = o.speed, a = o.acceleration;
   JointTrajectory t;
-  for (int attempt = 0; attempt < 8; ++attempt) {
-    // Trapezoid (or triangle) on s.
-    const double ta = std::min(v_s / a_s, std::sqrt(S / a_s));
-    const double vp = a_s * ta;
+  t.dt = dt;
+  for (int attempt = 0; attempt < 12; ++attempt) {
+    const double ta = std::min(v / a, std::sqrt(S / a));
+    const double vp = a * ta;
     const double T = 2 * ta + (S - vp * ta) / vp;
-    const int N = std::max(2, static_cast<int>(std::ceil(T / dt)) + 1);
-    const double scale_t = (N - 1) * dt / T;  // stretch to whole periods
-    t.dt = dt;
+    const int N = std::max(2, static_cast<int>(std::ceil(T / dt - 1e-9)) + 1);
+    const double stretch = T / ((N - 1) * dt);  // whole periods: slightly slower, never faster
     t.q.resize(robot.dof(), N);
-    int seg = 0;
-    for (int k = 0; k < N; ++k) {
-      const double tt = k * dt / scale_t;
-      double sv;
-      if (tt < ta) sv = 0.5 * a_s * tt * tt;
-      else if (tt < T - ta) sv = 0.5 * a_s * ta * ta + vp * (tt - ta);
-      else sv = S - 0.5 * a_s * std::pow(std::max(0.0, T - tt), 2);
-      sv = std::clamp(sv, 0.0, S);
-      if (k == N - 1) sv = S;
-      while (seg < m - 1 && s[seg + 1] < sv) ++seg;
-      const double f = (sv - s[seg]) / std::max(s[seg + 1] - s[seg], 1e-12);
-      t.q.col(k) = w[seg] + std::clamp(f, 0.0, 1.0) * (w[seg + 1] - w[seg]);
+    t.q.col(0) = path.waypoints.front();
+    VecX q = t.q.col(0), next;
+    bool ok = true;
+    for (int k = 1; k < N && ok; ++k) {
+      const double tt = k * dt * stretch;
+      double s;
+      if (tt < ta) s = 0.5 * a * tt * tt;
+      else if (tt < T - ta) s = 0.5 * a * ta * ta + vp * (tt - ta);
+      else s = S - 0.5 * a * std::pow(std::max(0.0, T - tt), 2);
+      const double f = k == N - 1 ? 1.0 : std::clamp(s / S, 0.0, 1.0);
+      const Pose Tk = makePose(p0 + f * (p1 - p0), q0.slerp(f, q1));
+      ok = ik(Tk, q, next);
+      if (ok) t.q.col(k) = q = next;
     }
+    if (!ok) return {};
     differentiate(t);
-    t.qd.col(0).setZero(), t.qd.col(N - 1).setZero();
-    const LimitReport rep = checkLimits(t, robot, 1e-6);
-    if (rep.max_velocity_ratio <= scale.velocity * (1 + 1e-6) + 1e-9 && rep.max_acceleration_ratio <= 1.0) break;
-    v_s *= 0.7, a_s *= 0.5;  // corners of the piecewise-linear path add acceleration: slow down
+    const LimitReport rep = checkLimits(t, robot, 0.0);
+    const double rv = rep.max_velocity_ratio / scale.velocity, ra = rep.max_acceleration_ratio / scale.acceleration;
+    if (rep.positions_ok && rv <= 1.0 && ra <= 1.0) return t;
+    // Slow down by what the worst joint needs (velocity scales with v, acceleration with v^2 and a).
+    const double k = std::max(rv, std::sqrt(ra)) * 1.05;
+    v /= k;
+    a /= k * k;
   }
-  return t;
+  return {};
 }
 
 }  // namespace mm

@@ -24,6 +24,7 @@ struct CartesianPath {
   bool ok = false;
   std::vector<VecX> waypoints;
   std::vector<double> cartesian_length;  ///< [m] length of each segment
+  Pose T_start = Pose::Identity(), T_goal = Pose::Identity();
   std::string reason;
 };
 
@@ -32,9 +33,11 @@ struct CartesianPath {
 CartesianPath planCartesianLine(const RobotModel& robot, CollisionChecker& checker, const VecX& q_start,
                                 const Pose& T_goal, const IkFunction& ik, const CartesianOptions& options);
 
-/// One trapezoid along the path's arc length, as fast as the scaled joint limits and the TCP
-/// speed/acceleration limits allow; samples checked and slowed down until within the limits.
-JointTrajectory cartesianTrajectory(const RobotModel& robot, const CartesianPath& path, const LimitScaling& scale,
-                                    const CartesianOptions& options, double dt);
+/// One trapezoid in the TCP's distance along the line (within the TCP speed and acceleration
+/// limits), sampled every `dt` with IK from the previous sample, so the joint motion is smooth;
+/// then checked against the scaled joint limits and slowed down until it holds. Empty when IK
+/// fails along the way (the path's waypoints already proved the line feasible).
+JointTrajectory cartesianTrajectory(const RobotModel& robot, const CartesianPath& path, const IkFunction& ik,
+                                    const LimitScaling& scale, const CartesianOptions& options, double dt);
 
 }  // namespace mm

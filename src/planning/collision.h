@@ -2,6 +2,7 @@
 // knows it: static obstacles exported from the scene plus perceived objects), padded, and against
 // the robot itself. FCL is the reference implementation; FCL headers stay in collision_fcl.cc.
 #pragma once
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -18,6 +19,9 @@ struct PlanningScene {
   bool has_attached = false;
   Vec3 attached_half = Vec3::Zero();
   Pose T_tcp_attached = Pose::Identity();
+  /// Padding of the held object [m]; NaN = the checker's padding. Negative = a contact tolerance,
+  /// for lifting off and setting down on a support surface.
+  double attached_padding = std::numeric_limits<double>::quiet_NaN();
   double finger_opening = 0.04;  ///< [m] per finger, for the finger shapes
   /// Names of obstacles not to check (e.g. the object being grasped during approach).
   std::vector<std::string> ignore;

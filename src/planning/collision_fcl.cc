@@ -1,5 +1,7 @@
 #include <fcl/fcl.h>
 
+#include <cmath>
+
 #include "core/error.h"
 #include "planning/collision.h"
 
@@ -94,7 +96,8 @@ class FclChecker final : public CollisionChecker {
     MM_DEMAND(hand_ >= 0);
     if (scene.has_attached) {
       Obstacle box;
-      box.size = scene.attached_half + Vec3::Constant(pad);
+      const double apad = std::isnan(scene.attached_padding) ? pad : scene.attached_padding;
+      box.size = (scene.attached_half + Vec3::Constant(apad)).cwiseMax(1e-3);
       attached_ = obstacleShape(box);
       attached_.name = "held object";
       // Pose relative to the hand link: T_hand_tcp * T_tcp_object.

@@ -5,6 +5,7 @@
 #include <ompl/geometric/PathGeometric.h>
 #include <ompl/geometric/PathSimplifier.h>
 #include <ompl/geometric/planners/rrt/RRTConnect.h>
+#include <ompl/config.h>
 #include <ompl/util/Console.h>
 
 #include <chrono>
@@ -40,6 +41,8 @@ double seconds(std::chrono::steady_clock::time_point a) {
 }
 
 }  // namespace
+
+std::string omplVersion() { return OMPL_VERSION; }
 
 bool segmentValid(CollisionChecker& checker, const VecX& a, const VecX& b, double resolution) {
   const double len = (b - a).norm();

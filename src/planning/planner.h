@@ -33,6 +33,9 @@ struct PlanResult {
 PlanResult planJointPath(const RobotModel& robot, CollisionChecker& checker, const VecX& start, const VecX& goal,
                          uint64_t seed, const PlannerOptions& options);
 
+/// OMPL's version, e.g. "1.5.2".
+std::string omplVersion();
+
 /// True when the straight joint-space segment a-b is valid at the given resolution [rad].
 bool segmentValid(CollisionChecker& checker, const VecX& a, const VecX& b, double resolution);
 

@@ -5,20 +5,10 @@
 #include <string>
 #include <vector>
 
+#include "core/joint_trajectory.h"
 #include "robot/robot_model.h"
 
 namespace mm {
-
-/// Samples k = 0..N-1 at t = k * dt: positions [rad], velocities [rad/s], accelerations [rad/s^2].
-struct JointTrajectory {
-  double dt = 0.002;  ///< [s]
-  Eigen::MatrixXd q, qd, qdd;  ///< dim dof x N
-  int size() const { return static_cast<int>(q.cols()); }
-  double duration() const { return size() > 0 ? (size() - 1) * dt : 0.0; }
-  bool empty() const { return size() == 0; }
-  /// Appends `other` (its first sample must equal our last; it is dropped).
-  void append(const JointTrajectory& other);
-};
 
 struct LimitScaling {
   double velocity = 1.0;      ///< fraction of the robot's velocity limits (0, 1]

@@ -42,11 +42,21 @@ class HardwareBase : public Hardware {
 
 class MujocoHardware final : public HardwareBase {
  public:
-  using HardwareBase::HardwareBase;
+  MujocoHardware(SimWorld& w, const RobotModel& r, std::vector<int> active)
+      : HardwareBase(w, r, std::move(active)), q_ref_(w.armPositions()), qd_ref_(VecX::Zero(r.dof())) {}
   const char* name() const override { return "mujoco"; }
   VecX jointVelocities() const override { return w_.armVelocities(); }
   Vec3 objectVelocity(int i) const override { return w_.objectVelocity(i); }
-  void step() override { w_.stepServo(q_cmd_, qd_cmd_, qdd_cmd_, grip_target_, grip_force_); }
+  // The setpoint is where the joints should be at the end of the period; the servo tracks the
+  // reference at its start (the previous setpoint) with the period's acceleration as feed-forward.
+  void step() override {
+    w_.stepServo(q_ref_, qd_ref_, qdd_cmd_, grip_target_, grip_force_);
+    q_ref_ = q_cmd_;
+    qd_ref_ = qd_cmd_;
+  }
+
+ private:
+  VecX q_ref_, qd_ref_;
   void attach(int i, bool on) override { w_.setWeld(i, on); }
 };
 
@@ -63,6 +73,7 @@ class MockHardware final : public HardwareBase {
   void step() override {
     const Pose T_before = w_.tcpPose();
     w_.setArm(q_cmd_);
+    w_.updateKinematics();
     // Fingers.
     const double dt = period();
     const double v = robot_.spec().gripper.velocity;
@@ -78,19 +89,15 @@ class MockHardware final : public HardwareBase {
         T_tcp_held_ = w_.tcpPose().inverse() * w_.object(k).T_world_object;
       }
     }
-    if (held_ >= 0 && target > opening) {  // opening releases
-      release();
-    }
-    if (held_ >= 0) opening = std::max(opening, halfWidthAcrossFingers(held_));
-    w_.setFingers(opening);
-    w_.stepKinematic();
+    if (held_ >= 0 && target > opening) release();  // opening lets go
     if (held_ >= 0) {
+      opening = std::max(opening, halfWidthAcrossFingers(held_));
       const Pose T = w_.tcpPose() * T_tcp_held_;
       held_velocity_ = (T.translation() - (T_before * T_tcp_held_).translation()) / dt;
       w_.setObjectPose(held_, T);
-      w_.stepKinematic();
-      w_.setArm(q_cmd_);
     }
+    w_.setFingers(opening);
+    w_.stepKinematic();  // one period: time advances once, contacts for the monitors
   }
 
  private:
@@ -113,8 +120,6 @@ class MockHardware final : public HardwareBase {
   }
   void release() {
     ObjectState o = w_.object(held_);
-    const double bottom = o.T_world_object.translation().z() - o.half_size.z();
-    (void)bottom;
     // Falls straight down onto the first surface below its lowest point (it keeps its yaw).
     const double support = w_.surfaceBelow(o.T_world_object.translation(), held_);
     Pose T = o.T_world_object;

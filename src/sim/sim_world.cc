@@ -327,6 +327,8 @@ void SimWorld::stepKinematic() {
   I.monitor();
 }
 
+void SimWorld::updateKinematics() { mj_kinematics(impl_->m, impl_->d); }
+
 void SimWorld::setWeld(int i, bool on) {
   Impl& I = *impl_;
   const int eq = I.obj_weld[i];
@@ -347,6 +349,17 @@ void SimWorld::setWeld(int i, bool on) {
   }
   I.m->eq_active[eq] = on ? 1 : 0;
 }
+
+std::pair<Pose, Vec3> SimWorld::site(const std::string& name) const {
+  const Impl& I = *impl_;
+  const int id = mj_name2id(I.m, mjOBJ_SITE, name.c_str());
+  if (id < 0) throw InputError("scene", "expected a site named '" + name + "'");
+  mj_kinematics(I.m, I.d);
+  const mjtNum* s = I.m->site_size + 3 * id;
+  return {poseOf(I.d->site_xpos + 3 * id, I.d->site_xmat + 9 * id), Vec3(s[0], s[1], s[2])};
+}
+
+std::string mujocoVersion() { return std::to_string(mj_version() / 100) + "." + std::to_string(mj_version() / 10 % 10) + "." + std::to_string(mj_version() % 10); }
 
 std::vector<Obstacle> SimWorld::staticObstacles() const {
   const Impl& I = *impl_;

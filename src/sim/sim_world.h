@@ -15,9 +15,14 @@ namespace mm {
 struct ServoGains {
   double kp = 400.0;   ///< [1/s^2] joint position gain of the computed-torque servo
   double kd = 40.0;    ///< [1/s] joint velocity gain
-  double finger_kp = 4000.0;  ///< [N/m]
-  double finger_kd = 40.0;    ///< [N s/m]
+  // The finger PD runs explicitly at the 2 ms step on ~0.025 kg (finger + armature): stable needs
+  // kd dt / m < 2 and kp dt^2 / m well under 1 (here 0.64 and 0.32); higher gains limit-cycle.
+  double finger_kp = 2000.0;  ///< [N/m]
+  double finger_kd = 8.0;     ///< [N s/m]
 };
+
+/// MuJoCo's version, e.g. "2.2.2".
+std::string mujocoVersion();
 
 class SimWorld {
  public:
@@ -58,9 +63,14 @@ class SimWorld {
   void stepServo(const VecX& q, const VecX& qd, const VecX& qdd, double finger_target, double finger_force);
   /// Advances time without dynamics: positions as set, contacts recomputed (mock hardware).
   void stepKinematic();
+  /// Recomputes body and site poses for the positions as set (time does not advance).
+  void updateKinematics();
 
   /// Weld object i to the hand in its current relative pose (weld-on-grasp), or release it.
   void setWeld(int i, bool on);
+
+  /// A named site's frame and size (box sites: half sizes) [m]; throws InputError if absent.
+  std::pair<Pose, Vec3> site(const std::string& name) const;
 
   /// Static obstacles as the planner should know them (the world body's geoms: table, bins, tray).
   std::vector<Obstacle> staticObstacles() const;

@@ -1,0 +1,112 @@
+#include "campaign/experiment.h"
+
+#include <filesystem>
+
+#include "core/error.h"
+
+namespace mm {
+
+std::vector<ParamDecl> experimentParams() {
+  using K = ParamDecl::Kind;
+  const double inf = std::numeric_limits<double>::infinity();
+  return {
+      {"name", K::kString, "quickstart", -inf, inf, {}, "", "campaign name; results go to results/<name>/ unless --out"},
+      {"trials", K::kInt, "100", 1, 1e7, {}, "", "number of trials (--trials overrides)"},
+      {"seed", K::kInt, "1", 0, 9.007e15, {}, "", "campaign seed; every random choice derives from (seed, trial, purpose)"},
+      {"hardware", K::kChoice, "mujoco", -inf, inf, {"mujoco", "mock"}, "", "mujoco: physics; mock: joints follow commands exactly"},
+      {"robot", K::kString, "../robots/panda/panda.yaml", -inf, inf, {}, "", "robot YAML, relative to this file"},
+      {"scene", K::kString, "../scenes/bin_table.xml", -inf, inf, {}, "", "scene MJCF (includes the robot), relative to this file"},
+      {"jobs", K::kInt, "1", 1, 64, {}, "", "parallel workers (outcomes do not depend on it)"},
+      {"progress", K::kChoice, "auto", -inf, inf, {"auto", "bar", "lines", "none"}, "", "progress display; auto: a bar on a terminal, lines otherwise"},
+      {"objects.count_min", K::kInt, "1", 1, 6, {}, "", "fewest objects in the bin"},
+      {"objects.count_max", K::kInt, "3", 1, 6, {}, "", "most objects in the bin (the scene holds 6)"},
+      {"objects.wall_margin", K::kDouble, "0.07", 0.0, 0.1, {}, "m", "object centers keep this far from the bin walls"},
+      {"objects.min_spacing", K::kDouble, "0.11", 0.05, 0.3, {}, "m", "least distance between object centers"},
+      {"objects.settle_time", K::kDouble, "0.3", 0.0, 5.0, {}, "s", "simulated settling after spawning"},
+      {"perception.mode", K::kChoice, "ground_truth", -inf, inf, {"hardcoded", "ground_truth"}, "", "hardcoded: assume the object at the bin center, yaw 0; ground_truth: simulator poses"},
+      {"perception.noise_position", K::kDouble, "0.0", 0.0, 0.05, {}, "m", "std of Gaussian noise on perceived x and y"},
+      {"perception.noise_yaw", K::kDouble, "0.0", 0.0, 0.5, {}, "rad", "std of Gaussian noise on perceived yaw"},
+      {"grasp.mode", K::kChoice, "friction", -inf, inf, {"friction", "weld"}, "", "friction: held by finger force; weld: attached on grasp (the source's attach plugin)"},
+      {"grasp.force", K::kDouble, "40", 1.0, 70.0, {}, "N", "finger force limit while grasping (the hand's limit is 70 N)"},
+      {"grasp.max_candidates", K::kInt, "8", 1, 64, {}, "", "grasp candidates tried before the pick fails"},
+      {"grasp.finger_margin", K::kDouble, "0.012", 0.002, 0.04, {}, "m", "fingers open this much wider than the object's half width before the approach"},
+      {"grasp.depth", K::kDouble, "0.0", -0.02, 0.02, {}, "m", "TCP height above the object's center at the grasp"},
+      {"motion.approach_distance", K::kDouble, "0.10", 0.02, 0.3, {}, "m", "pre-grasp and pre-place height above the grasp and place poses"},
+      {"motion.lift_height", K::kDouble, "0.15", 0.02, 0.4, {}, "m", "straight lift after the grasp"},
+      {"motion.retreat_distance", K::kDouble, "0.10", 0.02, 0.3, {}, "m", "straight retreat after the release"},
+      {"motion.place_clearance", K::kDouble, "0.005", 0.0, 0.05, {}, "m", "object bottom above the tray at the release"},
+      {"motion.velocity_scaling", K::kDouble, "0.5", 0.01, 1.0, {}, "", "fraction of the joint velocity limits"},
+      {"motion.acceleration_scaling", K::kDouble, "0.5", 0.01, 1.0, {}, "", "fraction of the joint acceleration limits"},
+      {"motion.cartesian_speed", K::kDouble, "0.2", 0.01, 1.0, {}, "m/s", "TCP speed limit on straight-line moves"},
+      {"motion.cartesian_acceleration", K::kDouble, "1.0", 0.05, 5.0, {}, "m/s^2", "TCP acceleration limit on straight-line moves"},
+      {"planning.planner", K::kChoice, "RRTConnect", -inf, inf, {"RRTConnect"}, "", "OMPL planner"},
+      {"planning.time_limit", K::kDouble, "5.0", 0.01, 600.0, {}, "s", "wall-clock cap per planning call (reaching it is recorded)"},
+      {"planning.padding", K::kDouble, "0.01", 0.0, 0.1, {}, "m", "robot inflation against the world"},
+      {"planning.simplify", K::kBool, "true", -inf, inf, {}, "", "shortcut and reduce the planned path"},
+      {"planning.resolution", K::kDouble, "0.02", 0.001, 0.2, {}, "rad", "edge validation step"},
+      {"success.position_tolerance", K::kDouble, "0.02", 0.001, 0.2, {}, "m", "horizontal distance from the place target counted as placed"},
+      {"success.orientation_tolerance", K::kDouble, "0.1745", 0.001, 3.1416, {}, "rad", "orientation error counted as placed (about its symmetry)"},
+      {"success.settle_time", K::kDouble, "0.5", 0.0, 5.0, {}, "s", "simulated rest before the placed object is measured"},
+  };
+}
+
+Experiment loadExperiment(const std::string& path, const std::vector<std::string>& sets) {
+  Experiment e{.params = ParamSet(experimentParams())};
+  ParamSet& p = e.params;
+  p.loadYamlFile(path);
+  for (const std::string& s : sets) {
+    const auto eq = s.find('=');
+    if (eq == std::string::npos || eq == 0) throw InputError("--set " + s, "expected key=value");
+    p.set(s.substr(0, eq), s.substr(eq + 1), "--set " + s.substr(0, eq));
+  }
+  e.file = path;
+  e.name = p.getString("name");
+  e.trials = p.getInt("trials");
+  e.seed = static_cast<uint64_t>(p.getInt("seed"));
+  e.hardware = p.getString("hardware");
+  const auto dir = std::filesystem::path(path).parent_path();
+  e.robot_path = (dir / p.getString("robot")).lexically_normal().string();
+  e.scene_path = (dir / p.getString("scene")).lexically_normal().string();
+  e.jobs = static_cast<int>(p.getInt("jobs"));
+  e.progress = p.getString("progress");
+
+  e.spawn.count_min = static_cast<int>(p.getInt("objects.count_min"));
+  e.spawn.count_max = static_cast<int>(p.getInt("objects.count_max"));
+  if (e.spawn.count_min > e.spawn.count_max)
+    throw InputError(path, "objects.count_min (" + std::to_string(e.spawn.count_min) + ") must be <= objects.count_max (" +
+                               std::to_string(e.spawn.count_max) + ")");
+  e.spawn.wall_margin = p.getDouble("objects.wall_margin");
+  e.spawn.min_spacing = p.getDouble("objects.min_spacing");
+  e.spawn.settle_time = p.getDouble("objects.settle_time");
+  e.spawn.physics = e.hardware == "mujoco";
+
+  e.perception.mode = p.getString("perception.mode") == "hardcoded" ? PerceptionMode::kHardcoded : PerceptionMode::kGroundTruth;
+  e.perception.noise_position = p.getDouble("perception.noise_position");
+  e.perception.noise_yaw = p.getDouble("perception.noise_yaw");
+
+  TaskOptions& t = e.task;
+  t.weld = p.getString("grasp.mode") == "weld";
+  t.grasp_force = p.getDouble("grasp.force");
+  t.max_grasp_candidates = static_cast<int>(p.getInt("grasp.max_candidates"));
+  t.grasp.depth = p.getDouble("grasp.depth");
+  t.finger_margin = p.getDouble("grasp.finger_margin");
+  t.approach_distance = p.getDouble("motion.approach_distance");
+  t.lift_height = p.getDouble("motion.lift_height");
+  t.retreat_distance = p.getDouble("motion.retreat_distance");
+  t.place_clearance = p.getDouble("motion.place_clearance");
+  t.scaling.velocity = p.getDouble("motion.velocity_scaling");
+  t.scaling.acceleration = p.getDouble("motion.acceleration_scaling");
+  t.cartesian.speed = p.getDouble("motion.cartesian_speed");
+  t.cartesian.acceleration = p.getDouble("motion.cartesian_acceleration");
+  t.planner.planner = p.getString("planning.planner");
+  t.planner.time_limit = p.getDouble("planning.time_limit");
+  t.planner.simplify = p.getBool("planning.simplify");
+  t.planner.resolution = p.getDouble("planning.resolution");
+  t.padding = p.getDouble("planning.padding");
+  t.tolerance_position = p.getDouble("success.position_tolerance");
+  t.tolerance_orientation = p.getDouble("success.orientation_tolerance");
+  t.settle_time = p.getDouble("success.settle_time");
+  return e;
+}
+
+}  // namespace mm

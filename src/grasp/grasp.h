@@ -1,0 +1,35 @@
+// Grasp candidates for a parallel gripper: top-down on a box-shaped object, both finger
+// orientations about each pair of faces, ranked by wrist rotation and finger clearance.
+#pragma once
+#include <vector>
+
+#include "core/geometry.h"
+
+namespace mm {
+
+struct GraspOptions {
+  double max_opening = 0.08;      ///< [m] full stroke of the gripper
+  double width_margin = 0.01;     ///< [m] the object must be this much narrower than the stroke
+  double depth = 0.0;             ///< [m] TCP above the object's center (positive = higher)
+  double finger_reach = 0.06;     ///< [m] half span of the open fingers from the TCP (for clearance)
+  double clearance_weight = 10.0; ///< score per metre of clearance (capped at 5 cm)
+};
+
+struct GraspCandidate {
+  Pose T_world_tcp = Pose::Identity();
+  double yaw = 0;    ///< [rad] TCP yaw (TCP z points down)
+  double width = 0;  ///< [m] object width across the fingers
+  double clearance = 0;  ///< [m] to the nearest neighbour along the finger direction
+  double score = 0;
+};
+
+/// Candidates for `target`, best first. `preferred_yaw` is the TCP yaw needing no wrist rotation;
+/// `neighbours` are the other objects and obstacles the open fingers should keep clear of.
+/// An object that is not upright (tilted over 15 degrees) or too wide gives no candidate.
+std::vector<GraspCandidate> topDownGrasps(const ObjectState& target, double preferred_yaw,
+                                          const std::vector<Obstacle>& neighbours, const GraspOptions& options);
+
+/// The TCP orientation pointing down with yaw psi: Rz(psi) * Rx(pi).
+Mat3 topDownRotation(double psi);
+
+}  // namespace mm

@@ -1,0 +1,30 @@
+#include "perception/perception.h"
+
+namespace mm {
+
+PerceptionResult perceive(const std::vector<ObjectState>& truth, const PerceptionOptions& o, Rng& rng) {
+  PerceptionResult r;
+  if (o.mode == PerceptionMode::kHardcoded) {
+    ObjectState s;
+    s.index = truth.empty() ? -1 : truth.front().index;
+    s.name = truth.empty() ? "hardcoded" : truth.front().name;
+    s.T_world_object = o.hardcoded_pose;
+    s.half_size = o.hardcoded_half;
+    r.objects.push_back(s);
+    r.ok = true;
+    return r;
+  }
+  for (ObjectState s : truth) {
+    if (o.noise_position > 0 || o.noise_yaw > 0) {
+      s.T_world_object.translation().x() += rng.normal(0, o.noise_position);
+      s.T_world_object.translation().y() += rng.normal(0, o.noise_position);
+      s.T_world_object.linear() = rotZ(rng.normal(0, o.noise_yaw)) * s.T_world_object.linear();
+    }
+    r.objects.push_back(s);
+  }
+  r.ok = !r.objects.empty();
+  if (!r.ok) r.reason = "no object detected";
+  return r;
+}
+
+}  // namespace mm

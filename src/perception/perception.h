@@ -1,0 +1,32 @@
+// Perception modes, as the source's three phases: hardcoded (a fixed pose, no sensing), ground
+// truth from the simulator (optionally with Gaussian noise), and later camera-based estimation.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "core/geometry.h"
+#include "core/rng.h"
+
+namespace mm {
+
+enum class PerceptionMode { kHardcoded, kGroundTruth };
+
+struct PerceptionOptions {
+  PerceptionMode mode = PerceptionMode::kGroundTruth;
+  double noise_position = 0.0;  ///< [m] std of Gaussian noise on x and y
+  double noise_yaw = 0.0;       ///< [rad] std of Gaussian noise on yaw
+  Pose hardcoded_pose = Pose::Identity();  ///< T_world_object assumed by the hardcoded mode
+  Vec3 hardcoded_half = Vec3::Constant(0.025);
+};
+
+struct PerceptionResult {
+  bool ok = false;
+  std::vector<ObjectState> objects;  ///< perceived poses (world frame)
+  std::string reason;
+};
+
+/// `truth` is the simulator's ground truth of the objects in play; the hardcoded mode ignores it
+/// and reports one object at the configured pose.
+PerceptionResult perceive(const std::vector<ObjectState>& truth, const PerceptionOptions& options, Rng& rng);
+
+}  // namespace mm

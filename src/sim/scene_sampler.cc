@@ -1,0 +1,78 @@
+#include "sim/scene_sampler.h"
+
+#include <cmath>
+
+namespace mm {
+
+SpawnResult spawnObjects(SimWorld& w, const RobotModel& robot, const Pose& T_region, const Vec3& half, Rng& rng,
+                         const SpawnOptions& o) {
+  SpawnResult r;
+  const int count = o.count_min + static_cast<int>(rng.below(o.count_max - o.count_min + 1));
+  const double surface = T_region.translation().z();
+  const VecX zero = VecX::Zero(robot.dof());
+  for (r.attempts = 1; r.attempts <= o.max_attempts; ++r.attempts) {
+    w.reset(robot.home());
+    for (int i = 0; i < w.numObjects(); ++i) w.parkObject(i);
+    r.active.clear();
+    std::vector<Vec3> centers;
+    bool placed_all = true;
+    for (int i = 0; i < count && placed_all; ++i) {
+      bool placed = false;
+      for (int draw = 0; draw < 200 && !placed; ++draw) {
+        const Vec3 local(rng.uniform(-half.x() + o.wall_margin, half.x() - o.wall_margin),
+                         rng.uniform(-half.y() + o.wall_margin, half.y() - o.wall_margin), 0.0);
+        const double yaw = rng.uniform(-M_PI, M_PI);
+        Vec3 p = T_region * local;
+        bool clear = true;
+        for (const Vec3& c : centers) clear = clear && (c - p).head<2>().norm() >= o.min_spacing;
+        if (!clear) continue;
+        const double hz = w.object(i).half_size.z();
+        p.z() = surface + hz + (o.physics ? 0.001 : 0.0);
+        w.setObjectPose(i, makePose(p, Mat3(rotZ(yaw))));
+        centers.push_back(p);
+        r.active.push_back(i);
+        placed = true;
+      }
+      placed_all = placed;
+    }
+    if (!placed_all) {
+      r.reason = "could not place " + std::to_string(count) + " objects " + std::to_string(o.min_spacing) + " m apart";
+      continue;
+    }
+    if (!o.physics) {
+      r.ok = true;
+      return r;
+    }
+    bool bad = false;
+    for (int i : r.active)
+      if (w.objectPenetration(i) > o.max_penetration) bad = true;
+    if (bad) {
+      r.reason = "objects interpenetrate at spawn";
+      continue;
+    }
+    for (double t = 0; t < o.settle_time; t += w.timestep()) {
+      w.stepServo(robot.home(), zero, zero, robot.spec().gripper.travel, robot.spec().gripper.max_force);
+      if (w.unstable()) break;
+    }
+    if (w.unstable()) {
+      r.reason = "unstable while settling: " + w.instabilityReason();
+      continue;
+    }
+    for (int i : r.active) {
+      const ObjectState s = w.object(i);
+      const Vec3 local = T_region.inverse() * s.T_world_object.translation();
+      if (w.objectPenetration(i) > o.max_penetration || s.T_world_object.linear().col(2).z() < 0.95 ||
+          std::abs(local.x()) > half.x() || std::abs(local.y()) > half.y() || w.objectVelocity(i).norm() > 0.02) {
+        bad = true;
+        r.reason = "object " + s.name + " did not settle upright in the bin";
+      }
+    }
+    if (!bad) {
+      r.ok = true;
+      return r;
+    }
+  }
+  return r;
+}
+
+}  // namespace mm

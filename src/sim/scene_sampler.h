@@ -1,0 +1,34 @@
+// Seeded object placement: 1..N objects in the bin region without overlap, settled by the physics
+// (MuJoCo hardware) or set at rest (mock). A spawn that interpenetrates, tips over or leaves the
+// bin is rejected and resampled from the same stream.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "core/rng.h"
+#include "sim/sim_world.h"
+
+namespace mm {
+
+struct SpawnOptions {
+  int count_min = 1, count_max = 3;
+  double wall_margin = 0.07;   ///< [m] object centers keep this far from the region's edges
+  double min_spacing = 0.11;   ///< [m] between object centers
+  double settle_time = 0.3;    ///< [s] simulated settling (physics only)
+  int max_attempts = 50;
+  bool physics = true;
+  double max_penetration = 0.002;  ///< [m] after settling
+};
+
+struct SpawnResult {
+  bool ok = false;
+  std::vector<int> active;  ///< object indices in play
+  int attempts = 0;
+  std::string reason;
+};
+
+/// Resets the world (arm at home) and places the objects in `region` (a box site on the bin floor).
+SpawnResult spawnObjects(SimWorld& world, const RobotModel& robot, const Pose& T_region, const Vec3& region_half,
+                         Rng& rng, const SpawnOptions& options);
+
+}  // namespace mm
