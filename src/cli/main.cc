@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "campaign/bench.h"
 #include "campaign/campaign.h"
 #include "campaign/experiment.h"
 #include "core/error.h"
@@ -13,10 +14,12 @@ namespace {
 const char* kUsage =
     "usage:\n"
     "  minimanip run EXPERIMENT.yaml [--trials N] [--seed S] [--out DIR] [--jobs N] [--set key=value]...\n"
+    "  minimanip bench EXPERIMENT.yaml [--trials N] [--seed S] [--set key=value]...\n"
+    "                                harness throughput vs pure MuJoCo stepping of the same trials\n"
     "  minimanip config-doc          print every experiment key as a Markdown table\n"
     "  minimanip help\n";
 
-int run(const std::vector<std::string>& args, const std::string& command_line) {
+int run(const std::vector<std::string>& args, const std::string& command_line, bool bench) {
   if (args.empty()) throw mm::InputError("minimanip run", std::string("expected an experiment file\n") + kUsage);
   std::string file, out;
   std::vector<std::string> sets;
@@ -37,6 +40,10 @@ int run(const std::vector<std::string>& args, const std::string& command_line) {
   }
   if (file.empty()) throw mm::InputError("minimanip run", "expected an experiment file");
   const mm::Experiment e = mm::loadExperiment(file, sets);
+  if (bench) {
+    std::cout << mm::benchmarkHarness(e, command_line);
+    return 0;
+  }
   mm::CampaignOptions co;
   co.out_dir = out.empty() ? "results/" + e.name : out;
   co.command_line = command_line;
@@ -56,7 +63,8 @@ int main(int argc, char** argv) {
       std::cout << kUsage;
       return args.empty() ? 2 : 0;
     }
-    if (args[0] == "run") return run({args.begin() + 1, args.end()}, command_line);
+    if (args[0] == "run") return run({args.begin() + 1, args.end()}, command_line, false);
+    if (args[0] == "bench") return run({args.begin() + 1, args.end()}, command_line, true);
     if (args[0] == "config-doc") {
       std::cout << mm::ParamSet(mm::experimentParams()).toMarkdown();
       return 0;

@@ -64,6 +64,7 @@ struct SimWorld::Impl {
   std::string instability;
   // scratch
   std::vector<mjtNum> scratch_a, scratch_b;
+  std::vector<double>* ctrl_log = nullptr;
 
   ~Impl() {
     if (d) mj_deleteData(d);
@@ -310,6 +311,7 @@ void SimWorld::stepServo(const VecX& q, const VecX& qd, const VecX& qdd, double 
     const double f = I.gains.finger_kp * (r - d->qpos[I.finger_qpos[k]]) + I.gains.finger_kd * (vref - d->qvel[I.finger_dof[k]]);
     d->ctrl[I.finger_act[k]] = std::clamp(f, -finger_force, finger_force);
   }
+  if (I.ctrl_log) I.ctrl_log->insert(I.ctrl_log->end(), d->ctrl, d->ctrl + m->nu);
   try {
     mj_step2(m, d);
   } catch (const std::runtime_error& e) {
@@ -325,6 +327,31 @@ void SimWorld::stepKinematic() {
   I.d->time += I.m->opt.timestep;
   mj_fwdPosition(I.m, I.d);
   I.monitor();
+}
+
+void SimWorld::recordControls(std::vector<double>* log) { impl_->ctrl_log = log; }
+
+SimWorld::State SimWorld::saveState() const {
+  const Impl& I = *impl_;
+  return {std::vector<double>(I.d->qpos, I.d->qpos + I.m->nq), std::vector<double>(I.d->qvel, I.d->qvel + I.m->nv), I.d->time};
+}
+
+void SimWorld::restoreState(const State& s) {
+  Impl& I = *impl_;
+  std::copy(s.qpos.begin(), s.qpos.end(), I.d->qpos);
+  std::copy(s.qvel.begin(), s.qvel.end(), I.d->qvel);
+  I.d->time = s.time;
+  mj_forward(I.m, I.d);
+}
+
+double SimWorld::replayControls(const std::vector<double>& log) {
+  Impl& I = *impl_;
+  const double t0 = I.d->time;
+  for (size_t k = 0; k + I.m->nu <= log.size(); k += I.m->nu) {
+    std::copy(log.begin() + k, log.begin() + k + I.m->nu, I.d->ctrl);
+    mj_step(I.m, I.d);
+  }
+  return I.d->time - t0;
 }
 
 void SimWorld::updateKinematics() { mj_kinematics(impl_->m, impl_->d); }

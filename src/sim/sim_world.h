@@ -72,6 +72,18 @@ class SimWorld {
   /// A named site's frame and size (box sites: half sizes) [m]; throws InputError if absent.
   std::pair<Pose, Vec3> site(const std::string& name) const;
 
+  // Benchmarking: record every control vector applied by stepServo, and replay a recording with
+  // bare mj_step from a saved state (no servo, no monitors) to measure pure simulation cost.
+  void recordControls(std::vector<double>* log);
+  struct State {
+    std::vector<double> qpos, qvel;
+    double time = 0;
+  };
+  State saveState() const;
+  void restoreState(const State& s);
+  /// Steps once per recorded control vector; returns the simulated seconds covered.
+  double replayControls(const std::vector<double>& log);
+
   /// Static obstacles as the planner should know them (the world body's geoms: table, bins, tray).
   std::vector<Obstacle> staticObstacles() const;
 

@@ -1,0 +1,247 @@
+// End-to-end: the minimanip binary on short campaigns, determinism, and bad input.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+namespace mm {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+using ::testing::HasSubstr;
+using ::testing::MatchesRegex;
+
+struct RunResult {
+  int code = -1;
+  std::string out;  // stdout and stderr
+};
+
+RunResult runMinimanip(const std::string& args) {
+  RunResult r;
+  const std::string cmd = std::string(MINIMANIP_BINARY) + " " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  char buf[4096];
+  while (size_t n = fread(buf, 1, sizeof buf, p)) r.out.append(buf, n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+class TempDir {
+ public:
+  TempDir() {
+    path_ = fs::temp_directory_path() / ("mm_test_" + std::to_string(getpid()) + "_" + std::to_string(counter_++));
+    fs::create_directories(path_);
+  }
+  ~TempDir() { fs::remove_all(path_); }
+  const fs::path& path() const { return path_; }
+  std::string file(const std::string& name, const std::string& text) const {
+    std::ofstream((path_ / name).string()) << text;
+    return (path_ / name).string();
+  }
+
+ private:
+  fs::path path_;
+  static inline int counter_ = 0;
+};
+
+std::vector<json> readTrials(const fs::path& dir) {
+  std::vector<json> v;
+  std::ifstream in(dir / "trials.jsonl");
+  for (std::string line; std::getline(in, line);) v.push_back(json::parse(line));
+  std::sort(v.begin(), v.end(), [](const json& a, const json& b) { return a["trial"] < b["trial"]; });
+  return v;
+}
+
+// Everything but wall-clock figures.
+json outcomeFields(json t) {
+  t.erase("cycle");
+  t.erase("compute_time");
+  for (auto& s : t["stages"]) s.erase("compute_seconds");
+  return t;
+}
+
+std::string source(const std::string& rel) { return (fs::current_path() / rel).string(); }
+
+TEST(Campaign, ShortMockCampaignSucceeds) {
+  TempDir d;
+  const RunResult r = runMinimanip("run experiments/quickstart.yaml --trials 5 --set hardware=mock --set progress=none --out " +
+                                   (d.path() / "out").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto trials = readTrials(d.path() / "out");
+  ASSERT_EQ(trials.size(), 5u);
+  for (const auto& t : trials) {
+    EXPECT_TRUE(t["success"].get<bool>()) << t.dump();
+    EXPECT_EQ(t["collision_count"], 0);
+    EXPECT_LT(t["place_position_error"].get<double>(), 1e-6);  // mock: objects move only with the hand
+  }
+  const json s = json::parse(std::ifstream(d.path() / "out" / "summary.json"));
+  EXPECT_EQ(s["overall_yield"]["value"], 1.0);
+  EXPECT_TRUE(fs::exists(d.path() / "out" / "config.resolved.yaml"));
+  EXPECT_THAT(r.out, HasSubstr("Overall Yield:     100.0%"));
+}
+
+TEST(Campaign, ShortMujocoCampaignSucceedsAndMeasures) {
+  TempDir d;
+  const RunResult r = runMinimanip("run experiments/quickstart.yaml --trials 4 --set progress=none --out " + (d.path() / "out").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto trials = readTrials(d.path() / "out");
+  ASSERT_EQ(trials.size(), 4u);
+  for (const auto& t : trials) {
+    EXPECT_TRUE(t["success"].get<bool>()) << t.dump();
+    EXPECT_EQ(t["collision_count"], 0);
+    EXPECT_FALSE(t["sim_unstable"].get<bool>());
+    EXPECT_LT(t["place_position_error"].get<double>(), 0.01);
+    EXPECT_LT(t["max_tracking_error"].get<double>(), 0.01);
+    EXPECT_GT(t["grasp_opening"].get<double>(), 0.02);  // the fingers stopped on the 5 cm cube
+    EXPECT_GT(t["sim_time"].get<double>(), 3.0);
+  }
+}
+
+TEST(Campaign, WeldModeSucceeds) {
+  TempDir d;
+  const RunResult r = runMinimanip("run experiments/quickstart.yaml --trials 2 --set grasp.mode=weld --set progress=none --out " +
+                                   (d.path() / "out").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const auto& t : readTrials(d.path() / "out")) EXPECT_TRUE(t["success"].get<bool>()) << t.dump();
+}
+
+// The same experiment and seed give identical outcome fields, run again or with two workers.
+TEST(Campaign, DeterministicAcrossRunsAndWorkerCounts) {
+  TempDir d;
+  const std::string base = "run experiments/quickstart.yaml --trials 6 --seed 77 --set objects.count_max=3 --set progress=none";
+  ASSERT_EQ(runMinimanip(base + " --out " + (d.path() / "a").string()).code, 0);
+  ASSERT_EQ(runMinimanip(base + " --out " + (d.path() / "b").string()).code, 0);
+  ASSERT_EQ(runMinimanip(base + " --jobs 2 --out " + (d.path() / "c").string()).code, 0);
+  const auto a = readTrials(d.path() / "a"), b = readTrials(d.path() / "b"), c = readTrials(d.path() / "c");
+  ASSERT_EQ(a.size(), 6u);
+  ASSERT_EQ(b.size(), 6u);
+  ASSERT_EQ(c.size(), 6u);
+  std::set<int> counts;
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(outcomeFields(a[i]), outcomeFields(b[i])) << "trial " << i;
+    EXPECT_EQ(outcomeFields(a[i]), outcomeFields(c[i])) << "trial " << i << " with 2 workers";
+    counts.insert(a[i]["objects_in_bin"].get<int>());
+  }
+  EXPECT_GT(counts.size(), 1u) << "the seeded sampler should vary the number of objects";
+  // A different seed changes the scenes.
+  ASSERT_EQ(runMinimanip("run experiments/quickstart.yaml --trials 6 --seed 78 --set progress=none --out " +
+                         (d.path() / "e").string()).code, 0);
+  EXPECT_NE(outcomeFields(readTrials(d.path() / "e")[0])["sim_time"], outcomeFields(a[0])["sim_time"]);
+}
+
+// ---- bad input: exit code 2, a message naming the file and the place, no results written ----
+
+class BadInput : public ::testing::Test {
+ protected:
+  void expectRejected(const std::string& args, const std::string& regex) {
+    const fs::path out = dir_.path() / "results_out";
+    const RunResult r = runMinimanip(args + " --out " + out.string());
+    EXPECT_EQ(r.code, 2) << r.out;
+    EXPECT_THAT(r.out, MatchesRegex("(.|\n)*" + regex + "(.|\n)*"));
+    EXPECT_FALSE(fs::exists(out)) << "a rejected run must not leave a results directory";
+  }
+  std::string experiment(const std::string& body) {
+    return dir_.file("exp.yaml", "robot: " + source("robots/panda/panda.yaml") + "\nscene: " +
+                                     source("scenes/bin_table.xml") + "\n" + body);
+  }
+  TempDir dir_;
+};
+
+TEST_F(BadInput, MissingExperimentFile) {
+  expectRejected("run no/such/file.yaml", "no/such/file\\.yaml: cannot open file");
+}
+
+TEST_F(BadInput, MalformedYaml) {
+  const std::string f = experiment("trials: [1, 2\nseed: 3\n");
+  expectRejected("run " + f, "exp\\.yaml:[0-9]+:[0-9]+: malformed YAML");
+}
+
+TEST_F(BadInput, UnknownKeyNamesLineAndSection) {
+  const std::string f = experiment("grasp:\n  forse: 30\n");
+  expectRejected("run " + f, "exp\\.yaml:4:3: unknown key 'grasp\\.forse' \\(known in this section: grasp\\.mode");
+}
+
+TEST_F(BadInput, ValueOutOfRange) {
+  const std::string f = experiment("trials: 0\n");
+  expectRejected("run " + f, "exp\\.yaml:3:[0-9]+: 'trials' must be in \\[1, 1e\\+07\\], got 0");
+}
+
+TEST_F(BadInput, WrongTypeAndBadChoice) {
+  expectRejected("run " + experiment("seed: abc\n"), "'seed' expects an integer, got 'abc'");
+  expectRejected("run " + experiment("hardware: gazebo\n"), "'hardware' expects one of mujoco, mock, got 'gazebo'");
+}
+
+TEST_F(BadInput, SetOverridesAreValidatedToo) {
+  expectRejected("run experiments/quickstart.yaml --set grasp.force=500", "--set grasp\\.force: 'grasp\\.force' must be in \\[1, 70\\]");
+  expectRejected("run experiments/quickstart.yaml --set nokey=1", "--set nokey: unknown key 'nokey'");
+}
+
+TEST_F(BadInput, InconsistentCounts) {
+  expectRejected("run " + experiment("objects:\n  count_min: 4\n  count_max: 2\n"), "count_min \\(4\\) must be <= objects\\.count_max \\(2\\)");
+}
+
+TEST_F(BadInput, MalformedMjcfXml) {
+  std::ifstream in("scenes/bin_table.xml");
+  std::stringstream s;
+  s << in.rdbuf();
+  std::string xml = s.str();
+  xml.replace(xml.find("<geom name=\"table\""), 5, "<geom name=\"table\"<");
+  // The scene includes ../robots/panda/panda.xml relative to itself: lay the copy out the same way.
+  fs::create_directories(dir_.path() / "robots");
+  fs::copy(source("robots/panda"), dir_.path() / "robots" / "panda");
+  fs::create_directories(dir_.path() / "sub");
+  dir_.file("sub/scene.xml", xml);
+  const std::string f2 = dir_.file("exp2.yaml", "robot: robots/panda/panda.yaml\nscene: sub/scene.xml\n");
+  expectRejected("run " + f2, "sub/scene\\.xml:[0-9]+: malformed XML");
+}
+
+TEST_F(BadInput, NanSizeAndZeroQuaternionInMjcf) {
+  std::ifstream in("scenes/bin_table.xml");
+  std::stringstream s;
+  s << in.rdbuf();
+  const std::string xml = s.str();
+  fs::create_directories(dir_.path() / "sub");
+  fs::create_directories(dir_.path() / "robots");
+  fs::copy(source("robots/panda"), dir_.path() / "robots" / "panda");
+  std::string nan = xml;
+  nan.replace(nan.find("size=\"0.6 0.75 0.375\""), 21, "size=\"0.6 nan 0.375\"");
+  dir_.file("sub/scene.xml", nan);
+  const std::string f = dir_.file("exp.yaml", "robot: robots/panda/panda.yaml\nscene: sub/scene.xml\n");
+  expectRejected("run " + f, "sub/scene\\.xml:[0-9]+: <geom> size=\"0\\.6 nan 0\\.375\": expected finite numbers");
+  std::string zq = xml;
+  zq.replace(zq.find("<geom name=\"table\""), 18, "<geom name=\"table\" quat=\"0 0 0 0\"");
+  dir_.file("sub/scene.xml", zq);
+  expectRejected("run " + f, "sub/scene\\.xml:[0-9]+: <geom> quat is zero");
+}
+
+TEST_F(BadInput, MalformedUrdf) {
+  fs::create_directories(dir_.path() / "robots");
+  fs::copy(source("robots/panda"), dir_.path() / "robots" / "panda");
+  const fs::path urdf = dir_.path() / "robots" / "panda" / "panda.urdf";
+  std::stringstream s;
+  s << std::ifstream(urdf).rdbuf();
+  std::string text = s.str();
+  text.replace(text.find("</robot>"), 8, "</robt>");
+  std::ofstream(urdf) << text;
+  const std::string f = dir_.file("exp.yaml", "robot: robots/panda/panda.yaml\nscene: " + source("scenes/bin_table.xml") + "\n");
+  expectRejected("run " + f, "panda\\.urdf:[0-9]+: malformed XML");
+}
+
+TEST_F(BadInput, UnknownOptionAndCommand) {
+  expectRejected("run experiments/quickstart.yaml --frobnicate", "--frobnicate: unknown option");
+  const RunResult r = runMinimanip("fly");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_THAT(r.out, HasSubstr("fly: unknown command"));
+}
+
+}  // namespace
+}  // namespace mm

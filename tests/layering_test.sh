@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# Dependencies point down (README "Architecture"): the layers below the simulator never include
+# MuJoCo or sim/, planning never includes MuJoCo, and no header of ours pulls in MuJoCo, OMPL, FCL
+# or OpenCV (they stay in the .cc files of the layer that needs them).
+set -u
+cd "$(dirname "$0")/../src"
+fail=0
+for layer in core robot kinematics planning grasp perception; do
+  hits=$(grep -nE '#include [<"](mujoco/|sim/|task/|campaign/|cli/)' "$layer"/*.h "$layer"/*.cc 2>/dev/null)
+  if [ -n "$hits" ]; then echo "layer $layer includes a layer above it or MuJoCo:"; echo "$hits"; fail=1; fi
+done
+for layer in core robot sim kinematics planning grasp perception task; do
+  hits=$(grep -nE '#include [<"](campaign/|cli/)' "$layer"/*.h "$layer"/*.cc 2>/dev/null)
+  if [ -n "$hits" ]; then echo "layer $layer includes campaign/ or cli/:"; echo "$hits"; fail=1; fi
+done
+hits=$(grep -nE '#include <(mujoco/|ompl/|fcl/|opencv)' */*.h)
+if [ -n "$hits" ]; then echo "heavy headers in our headers:"; echo "$hits"; fail=1; fi
+[ $fail -eq 0 ] && echo "layering ok"
+exit $fail

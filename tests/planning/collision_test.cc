@@ -1,0 +1,129 @@
+#include "planning/collision.h"
+
+#include <gtest/gtest.h>
+
+#include "planning/planner.h"
+
+namespace mm {
+namespace {
+
+const RobotModel& panda() {
+  static const RobotModel robot = RobotModel::load("robots/panda/panda.yaml");
+  return robot;
+}
+
+Obstacle box(const std::string& name, const Vec3& center, const Vec3& half) {
+  Obstacle o;
+  o.name = name;
+  o.size = half;
+  o.T_world = makePose(center, Mat3::Identity());
+  return o;
+}
+
+// The table: its top at z = 0 (the robot's base stands on it).
+PlanningScene tableScene() {
+  PlanningScene s;
+  s.obstacles.push_back(box("table", Vec3(0.4, 0, -0.375), Vec3(0.6, 0.75, 0.375)));
+  return s;
+}
+
+TEST(FclChecker, HomeIsFree) {
+  auto c = makeFclChecker(panda(), tableScene(), 0.01);
+  EXPECT_TRUE(c->isValid(panda().home())) << c->lastCollision();
+}
+
+TEST(FclChecker, ArmFoldedIntoTheTableCollides) {
+  //   z
+  //   |  shoulder (0.333)
+  //   |      \  upper arm pitched 100 deg forward, elbow straight:
+  //   |        \___ the forearm and hand end below the table top (z = 0)
+  // ==+================== table
+  VecX q = panda().home();
+  q[1] = 1.75;   // joint 2 near its limit: upper arm almost horizontal forward
+  q[3] = -0.07;  // elbow straight
+  auto c = makeFclChecker(panda(), tableScene(), 0.0);
+  EXPECT_FALSE(c->isValid(q));
+  EXPECT_NE(c->lastCollision().find("table"), std::string::npos) << c->lastCollision();
+}
+
+TEST(FclChecker, PaddingMakesANearMissACollision) {
+  // A 2 cm cube 1.5 cm below the left fingertip (fingers open 4 cm, so the finger's middle is
+  // 4.9 cm along the TCP's y; its tip 9 mm past the TCP along z): free without padding, in
+  // collision with 2 cm of padding.
+  const Pose T = panda().fk(panda().home());
+  PlanningScene s;
+  const double fingertip = 0.009;
+  Obstacle cube = box("cube", T * Vec3(0, 0.049, fingertip + 0.015 + 0.01), Vec3::Constant(0.01));
+  cube.T_world.linear() = T.linear();
+  s.obstacles.push_back(cube);
+  EXPECT_TRUE(makeFclChecker(panda(), s, 0.0)->isValid(panda().home()));
+  EXPECT_FALSE(makeFclChecker(panda(), s, 0.02)->isValid(panda().home()));
+}
+
+TEST(FclChecker, SelfCollisionDetected) {
+  // Elbow fully bent (joint 4 at its lower limit) with the wrist folded back (joint 6 at its lower
+  // limit) brings the hand into the upper arm.
+  VecX q = panda().home();
+  q[3] = -3.0;
+  q[5] = 0.0;
+  q[4] = 0.0;
+  PlanningScene empty;
+  auto c = makeFclChecker(panda(), empty, 0.0);
+  EXPECT_FALSE(c->isValid(q)) << "expected a self collision";
+}
+
+TEST(FclChecker, OutOfLimitsIsInvalid) {
+  VecX q = panda().home();
+  q[3] = 0.1;  // joint 4's upper limit is -0.0698
+  auto c = makeFclChecker(panda(), tableScene(), 0.0);
+  EXPECT_FALSE(c->isValid(q));
+  EXPECT_EQ(c->lastCollision(), "joint limits");
+}
+
+TEST(FclChecker, HeldObjectIsChecked) {
+  // Hold a 5 cm cube at the TCP and put a thin plate 3 cm below it: only the held object hits.
+  const Pose T = panda().fk(panda().home());
+  PlanningScene s;
+  s.obstacles.push_back(box("plate", T.translation() - Vec3(0, 0, 0.055), Vec3(0.1, 0.1, 0.005)));
+  EXPECT_TRUE(makeFclChecker(panda(), s, 0.0)->isValid(panda().home()));
+  s.has_attached = true;
+  s.attached_half = Vec3::Constant(0.025);
+  s.T_tcp_attached = Pose::Identity();
+  s.T_tcp_attached.translation().z() = 0.03;  // object center 3 cm further along the TCP z (down)
+  auto c = makeFclChecker(panda(), s, 0.0);
+  EXPECT_FALSE(c->isValid(panda().home()));
+  EXPECT_NE(c->lastCollision().find("held object"), std::string::npos);
+}
+
+TEST(Planner, FindsAPathAroundAWallAndRepeatsWithTheSameSeed) {
+  const RobotModel& r = panda();
+  PlanningScene s = tableScene();
+  // A wall between the start (arm turned to -60 deg) and the goal (+60 deg), in front of the robot.
+  s.obstacles.push_back(box("wall", Vec3(0.55, 0.0, 0.25), Vec3(0.05, 0.05, 0.25)));
+  auto c = makeFclChecker(r, s, 0.01);
+  VecX a = r.home(), b = r.home();
+  a[0] = -1.0, b[0] = 1.0;
+  a[1] = b[1] = 0.3;
+  ASSERT_TRUE(c->isValid(a)) << c->lastCollision();
+  ASSERT_TRUE(c->isValid(b)) << c->lastCollision();
+  PlannerOptions o;
+  const PlanResult p1 = planJointPath(r, *c, a, b, 1234, o);
+  ASSERT_TRUE(p1.ok) << p1.reason;
+  for (size_t k = 1; k < p1.path.size(); ++k) EXPECT_TRUE(segmentValid(*c, p1.path[k - 1], p1.path[k], 0.01));
+  const PlanResult p2 = planJointPath(r, *c, a, b, 1234, o);
+  ASSERT_EQ(p1.path.size(), p2.path.size());
+  for (size_t k = 0; k < p1.path.size(); ++k) EXPECT_EQ(p1.path[k], p2.path[k]);
+}
+
+TEST(Planner, GoalInCollisionFailsAtOnceWithAReason) {
+  const RobotModel& r = panda();
+  auto c = makeFclChecker(r, tableScene(), 0.0);
+  VecX goal = r.home();
+  goal[1] = 1.75, goal[3] = -0.07;
+  const PlanResult p = planJointPath(r, *c, r.home(), goal, 1, {});
+  EXPECT_FALSE(p.ok);
+  EXPECT_NE(p.reason.find("goal state invalid"), std::string::npos) << p.reason;
+}
+
+}  // namespace
+}  // namespace mm

@@ -1,0 +1,101 @@
+#include "planning/trajectory.h"
+
+#include <gtest/gtest.h>
+
+#include "core/rng.h"
+#include "kinematics/ik.h"
+#include "planning/cartesian.h"
+
+namespace mm {
+namespace {
+
+const RobotModel& panda() {
+  static const RobotModel robot = RobotModel::load("robots/panda/panda.yaml");
+  return robot;
+}
+
+// 200 random multi-waypoint paths (seed 21), several limit scalings: every sample of every
+// trajectory is within the position, velocity and acceleration limits, and it passes through
+// each waypoint at rest.
+TEST(TrapezoidalTrajectory, RespectsScaledLimitsAndHitsWaypoints) {
+  const RobotModel& r = panda();
+  Rng rng(21);
+  for (int trial = 0; trial < 200; ++trial) {
+    std::vector<VecX> wp;
+    const int n = 2 + static_cast<int>(rng.below(4));
+    for (int i = 0; i < n; ++i) {
+      VecX q(r.dof());
+      for (int j = 0; j < r.dof(); ++j) q[j] = rng.uniform(r.lower()[j], r.upper()[j]);
+      wp.push_back(q);
+    }
+    const LimitScaling s{rng.uniform(0.1, 1.0), rng.uniform(0.1, 1.0)};
+    const JointTrajectory t = trapezoidalTrajectory(wp, r.vmax(), r.amax(), s, 0.002);
+    ASSERT_GT(t.size(), 1);
+    EXPECT_LT((t.q.col(0) - wp.front()).norm(), 1e-12);
+    EXPECT_LT((t.q.col(t.size() - 1) - wp.back()).norm(), 1e-12);
+    EXPECT_LT(t.qd.col(t.size() - 1).norm(), 1e-12);
+    const LimitReport rep = checkLimits(t, r, 1e-9);
+    EXPECT_TRUE(rep.positions_ok) << rep.worst;
+    EXPECT_LE(rep.max_velocity_ratio, s.velocity * (1 + 1e-9)) << "trial " << trial;
+    EXPECT_LE(rep.max_acceleration_ratio, s.acceleration * (1 + 1e-9)) << "trial " << trial;
+    // The analytic velocities integrate to the positions (the profile is consistent).
+    for (int k = 1; k < t.size(); ++k) {
+      const VecX mid = 0.5 * (t.qd.col(k) + t.qd.col(k - 1)) * t.dt;
+      ASSERT_LT((t.q.col(k) - t.q.col(k - 1) - mid).cwiseAbs().maxCoeff(), 0.5 * r.amax().maxCoeff() * t.dt * t.dt + 1e-12);
+    }
+  }
+}
+
+TEST(TrapezoidalTrajectory, MinimumTimeForOneJoint) {
+  // One joint moving 1 rad at v = 2.175 rad/s, a = 15 rad/s^2 (joint 1, unscaled):
+  // accelerating to v takes v/a = 0.145 s over 0.1577 rad, so a trapezoid of 1/v + v/a = 0.6048 s.
+  const RobotModel& r = panda();
+  VecX a = r.home(), b = r.home();
+  b[0] += 1.0;
+  const JointTrajectory t = trapezoidalTrajectory({a, b}, r.vmax(), r.amax(), {1.0, 1.0}, 0.002);
+  EXPECT_NEAR(t.duration(), 1.0 / 2.175 + 2.175 / 15.0, 0.002);
+}
+
+// Straight TCP lines sampled every 2 ms with IK: smooth enough that finite differences stay
+// within the scaled limits, and the TCP stays on the line.
+TEST(CartesianTrajectory, StraightLineWithinLimits) {
+  const RobotModel& r = panda();
+  auto checker_free = [] {
+    struct Free : CollisionChecker {
+      bool isValid(const VecX&) override { return true; }
+      std::string lastCollision() const override { return ""; }
+    };
+    return Free();
+  }();
+  Rng rng(3);
+  const IkFunction ik = [&](const Pose& T, const VecX& seed, VecX& q) {
+    IkOptions o;
+    o.max_attempts = 1;
+    o.tol_position = 1e-10;
+    o.tol_rotation = 1e-9;
+    const IkResult res = solveIkDls(r, T, seed, rng, o);
+    if (res.ok()) q = res.q;
+    return res.ok();
+  };
+  const VecX q0 = r.home();
+  Pose goal = r.fk(q0);
+  goal.translation() += Vec3(0.1, -0.15, -0.2);
+  CartesianOptions co;
+  const CartesianPath path = planCartesianLine(r, checker_free, q0, goal, ik, co);
+  ASSERT_TRUE(path.ok) << path.reason;
+  const LimitScaling s{0.5, 0.5};
+  const JointTrajectory t = cartesianTrajectory(r, path, ik, s, co, 0.002);
+  ASSERT_FALSE(t.empty());
+  const LimitReport rep = checkLimits(t, r, 0.0);
+  EXPECT_LE(rep.max_velocity_ratio, 0.5);
+  EXPECT_LE(rep.max_acceleration_ratio, 0.5);
+  const Vec3 p0 = r.fk(q0).translation(), dir = (goal.translation() - p0).normalized();
+  for (int k = 0; k < t.size(); k += 10) {
+    const Vec3 p = r.fk(t.q.col(k)).translation() - p0;
+    EXPECT_LT((p - p.dot(dir) * dir).norm(), 1e-6);  // on the line
+  }
+  EXPECT_LT((r.fk(t.q.col(t.size() - 1)).translation() - goal.translation()).norm(), 1e-6);
+}
+
+}  // namespace
+}  // namespace mm
