@@ -42,7 +42,10 @@ double seconds(std::chrono::steady_clock::time_point a) {
 
 }  // namespace
 
-std::string omplVersion() { return OMPL_VERSION; }
+// Debian's OMPL 1.5.2 defines OMPL_VERSION as "", so build it from the numeric parts.
+std::string omplVersion() {
+  return std::to_string(OMPL_MAJOR_VERSION) + "." + std::to_string(OMPL_MINOR_VERSION) + "." + std::to_string(OMPL_PATCH_VERSION);
+}
 
 bool segmentValid(CollisionChecker& checker, const VecX& a, const VecX& b, double resolution) {
   const double len = (b - a).norm();
