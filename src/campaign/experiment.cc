@@ -51,7 +51,7 @@ std::vector<ParamDecl> experimentParams() {
 }
 
 Experiment loadExperiment(const std::string& path, const std::vector<std::string>& sets) {
-  Experiment e{.params = ParamSet(experimentParams())};
+  Experiment e;
   ParamSet& p = e.params;
   p.loadYamlFile(path);
   for (const std::string& s : sets) {

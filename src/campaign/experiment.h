@@ -12,6 +12,9 @@
 
 namespace mm {
 
+/// The declarations (also printed by `minimanip config-doc` for the README).
+std::vector<ParamDecl> experimentParams();
+
 struct Experiment {
   std::string file;        ///< the YAML it came from
   std::string name;
@@ -25,11 +28,8 @@ struct Experiment {
   SpawnOptions spawn;
   PerceptionOptions perception;
   TaskOptions task;
-  ParamSet params;         ///< every value as used (for config.resolved.yaml)
+  ParamSet params{experimentParams()};  ///< every value as used (for config.resolved.yaml)
 };
-
-/// The declarations (also printed by `minimanip config-doc` for the README).
-std::vector<ParamDecl> experimentParams();
 
 /// Loads `path`, applies `sets` ("key=value"), validates. Throws InputError (exit code 2).
 Experiment loadExperiment(const std::string& path, const std::vector<std::string>& sets);

@@ -59,6 +59,7 @@ struct SimWorld::Impl {
   // monitors
   std::set<std::pair<int, int>> touching;
   int collision_events = 0;
+  double last_contact_time = -1e9;
   std::vector<std::string> collision_log;
   bool unstable = false;
   std::string instability;
@@ -85,6 +86,9 @@ struct SimWorld::Impl {
         instability = s.str();
       }
     }
+    // A collision event is an episode of penetrating contact between the robot and the static
+    // scene: its onset counts once, however many geoms touch, and bounces within 0.1 s of the
+    // last contact belong to the same event.
     std::set<std::pair<int, int>> now;
     for (int i = 0; i < d->ncon; ++i) {
       const mjContact& c = d->contact[i];
@@ -94,12 +98,16 @@ struct SimWorld::Impl {
       else if (robot_geom[c.geom2] && static_geom[c.geom1]) r = c.geom2, s = c.geom1;
       if (r < 0) continue;
       now.insert({r, s});
-      if (!touching.count({r, s})) {
+    }
+    if (!now.empty()) {
+      if (d->time - last_contact_time > 0.1) {
         ++collision_events;
         std::ostringstream o;
-        o << mj_id2name(m, mjOBJ_GEOM, r) << " hit " << mj_id2name(m, mjOBJ_GEOM, s) << " at t=" << d->time;
+        o << mj_id2name(m, mjOBJ_GEOM, now.begin()->first) << " hit " << mj_id2name(m, mjOBJ_GEOM, now.begin()->second)
+          << " at t=" << d->time;
         if (collision_log.size() < 20) collision_log.push_back(o.str());
       }
+      last_contact_time = d->time;
     }
     touching.swap(now);
   }
@@ -188,6 +196,7 @@ void SimWorld::reset(const VecX& q_arm) {
   for (int i = 0; i < I.dof; ++i) I.d->qpos[I.arm_qpos[i]] = q_arm[i];
   setFingers(I.m->jnt_range[2 * I.m->dof_jntid[I.finger_dof[0]] + 1]);
   I.touching.clear();
+  I.last_contact_time = -1e9;
   I.collision_events = 0;
   I.collision_log.clear();
   I.unstable = false;

@@ -87,7 +87,8 @@ class SimWorld {
   /// Static obstacles as the planner should know them (the world body's geoms: table, bins, tray).
   std::vector<Obstacle> staticObstacles() const;
 
-  int collisionEvents() const;                 ///< onsets of robot vs table/bin/tray contact
+  /// Episodes of robot vs table/bin/tray penetration (bounces within 0.1 s are one episode).
+  int collisionEvents() const;
   const std::vector<std::string>& collisionLog() const;
   bool unstable() const;                       ///< MuJoCo flagged a bad state
   const std::string& instabilityReason() const;

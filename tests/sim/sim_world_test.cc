@@ -1,0 +1,94 @@
+// The simulator's monitors and the two hardware backends.
+#include "sim/sim_world.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "sim/controllers.h"
+#include "sim/hardware.h"
+
+namespace mm {
+namespace {
+
+const RobotModel& panda() {
+  static const RobotModel robot = RobotModel::load("robots/panda/panda.yaml");
+  return robot;
+}
+
+std::unique_ptr<SimWorld> world() {
+  auto w = SimWorld::load("scenes/bin_table.xml", panda());
+  for (int i = 0; i < w->numObjects(); ++i) w->parkObject(i);
+  return w;
+}
+
+TEST(SimWorld, NanStateEndsAsUnstableWithAReason) {
+  auto w = world();
+  VecX q = panda().home();
+  q[2] = std::nan("");
+  w->setArm(q);
+  const VecX zero = VecX::Zero(7);
+  w->stepServo(panda().home(), zero, zero, 0.04, 40);
+  EXPECT_TRUE(w->unstable());
+  EXPECT_THAT(w->instabilityReason(), ::testing::HasSubstr("bad qpos"));
+  // Through the controller the trial sees a SIM_UNSTABLE failure, not a crash.
+  auto hw = makeMujocoHardware(*w, panda(), {});
+  JointTrajectory t;
+  t.q = t.qd = t.qdd = Eigen::MatrixXd::Zero(7, 3);
+  for (int k = 0; k < 3; ++k) t.q.col(k) = panda().home();
+  const ExecutionResult r = executeTrajectory(*hw, t, 0.04, 40, {});
+  EXPECT_FALSE(r.ok);
+  EXPECT_THAT(r.reason, ::testing::StartsWith("SIM_UNSTABLE"));
+}
+
+TEST(SimWorld, DrivingTheHandIntoTheTableCountsOneCollisionEvent) {
+  // Home has the TCP 0.49 m above the table; joint 2 pitched forward to 1.3 rad pushes the hand
+  // through the table top (z = 0) between the bin and the tray.
+  auto w = world();
+  auto hw = makeMujocoHardware(*w, panda(), {});
+  VecX q = panda().home();
+  const VecX zero = VecX::Zero(7);
+  for (int k = 0; k < 1000; ++k) {
+    q[1] = std::min(1.3, -0.785398 + k * 0.004);
+    hw->write(q, zero, zero);
+    hw->step();
+  }
+  EXPECT_EQ(w->collisionEvents(), 1) << ::testing::PrintToString(w->collisionLog());
+  ASSERT_FALSE(w->collisionLog().empty());
+  EXPECT_THAT(w->collisionLog()[0], ::testing::HasSubstr("hit table"));
+  EXPECT_FALSE(w->unstable());
+}
+
+TEST(MockHardware, HeldObjectMovesWithTheHandAndRestsWhenReleased) {
+  auto w = world();
+  const Pose T_tcp = panda().fk(panda().home());
+  // A cube floating between the open fingers at the TCP (mock: nothing falls unless released).
+  w->setObjectPose(0, makePose(T_tcp.translation(), Mat3::Identity()));
+  auto hw = makeMockHardware(*w, panda(), {0});
+  const GripperResult closed = moveGripper(*hw, panda().home(), 0.0, 40);
+  EXPECT_NEAR(closed.opening, 0.025, 1e-6);  // stopped on the 5 cm cube
+  // Turn joint 1 by 0.3 rad: the cube follows the TCP exactly.
+  VecX q = panda().home();
+  q[0] = 0.3;
+  const VecX zero = VecX::Zero(7);
+  hw->write(q, zero, zero);
+  hw->step();
+  EXPECT_LT((hw->object(0).T_world_object.translation() - panda().fk(q).translation()).norm(), 1e-9);
+  EXPECT_EQ(hw->jointPositions(), q);
+  // Open: the cube drops onto the table top (z = 0) below.
+  moveGripper(*hw, q, 0.04, 40);
+  EXPECT_NEAR(hw->object(0).T_world_object.translation().z(), 0.025, 1e-6);
+}
+
+TEST(SimWorld, ExportsTheStaticSceneForThePlanner) {
+  auto w = world();
+  const auto obstacles = w->staticObstacles();
+  std::vector<std::string> names;
+  for (const auto& o : obstacles) names.push_back(o.name);
+  EXPECT_THAT(names, ::testing::IsSupersetOf({"table", "bin_floor", "bin_wall_xp", "tray_floor", "tray_wall_yn"}));
+  EXPECT_THAT(names, ::testing::Not(::testing::Contains("floor")));  // the ground plane is out of reach
+}
+
+}  // namespace
+}  // namespace mm
