@@ -39,6 +39,7 @@ std::vector<ParamDecl> experimentParams() {
       {"motion.acceleration_scaling", K::kDouble, "0.5", 0.01, 1.0, {}, "", "fraction of the joint acceleration limits"},
       {"motion.cartesian_speed", K::kDouble, "0.2", 0.01, 1.0, {}, "m/s", "TCP speed limit on straight-line moves"},
       {"motion.cartesian_acceleration", K::kDouble, "1.0", 0.05, 5.0, {}, "m/s^2", "TCP acceleration limit on straight-line moves"},
+      {"kinematics.solver", K::kChoice, "analytic", -inf, inf, {"analytic", "hybrid", "dls", "kdl", "kdl_restarts", "trac_ik", "trac_ik_distance"}, "", "IK solver for grasp and place poses (see the IK comparison in the README)"},
       {"planning.planner", K::kChoice, "RRTConnect", -inf, inf, {"RRTConnect"}, "", "OMPL planner"},
       {"planning.time_limit", K::kDouble, "5.0", 0.01, 600.0, {}, "s", "wall-clock cap per planning call (reaching it is recorded)"},
       {"planning.padding", K::kDouble, "0.01", 0.0, 0.1, {}, "m", "robot inflation against the world"},
@@ -98,6 +99,7 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
   t.scaling.acceleration = p.getDouble("motion.acceleration_scaling");
   t.cartesian.speed = p.getDouble("motion.cartesian_speed");
   t.cartesian.acceleration = p.getDouble("motion.cartesian_acceleration");
+  t.ik_solver = p.getString("kinematics.solver");
   t.planner.planner = p.getString("planning.planner");
   t.planner.time_limit = p.getDouble("planning.time_limit");
   t.planner.simplify = p.getBool("planning.simplify");

@@ -1,68 +1,66 @@
 #include "kinematics/ik.h"
 
-#include <Eigen/Dense>
 #include <cmath>
 
-namespace mm {
-namespace {
+#include "core/error.h"
+#include "kinematics/chain.h"
+#include "kinematics/ik_solvers.h"
 
-// Pose error of T relative to the target: (position; rotation vector), in the base frame.
-Eigen::Matrix<double, 6, 1> poseError(const Pose& target, const Pose& T) {
-  Eigen::Matrix<double, 6, 1> e;
-  e.head<3>() = target.translation() - T.translation();
-  const Eigen::AngleAxisd aa(target.linear() * T.linear().transpose());
-  e.tail<3>() = aa.axis() * aa.angle();
-  return e;
+namespace mm {
+
+std::vector<std::string> ikSolverNames() {
+  return {"analytic", "dls", "hybrid", "kdl", "kdl_restarts", "trac_ik", "trac_ik_distance"};
 }
 
-}  // namespace
+std::unique_ptr<IkSolver> makeIkSolver(const std::string& name, const RobotModel& robot) {
+  if (name == "analytic") return makeAnalyticSolver(robot, false);
+  if (name == "hybrid") return makeAnalyticSolver(robot, true);
+  if (name == "dls") return makeDlsSolver(robot);
+  if (name == "kdl") return makeKdlSolver(robot, false);
+  if (name == "kdl_restarts") return makeKdlSolver(robot, true);
+  if (name == "trac_ik") return makeTracIkSolver(robot, false);
+  if (name == "trac_ik_distance") return makeTracIkSolver(robot, true);
+  std::string known;
+  for (const auto& n : ikSolverNames()) known += (known.empty() ? "" : ", ") + n;
+  throw InputError("ik solver '" + name + "'", "unknown solver (expected one of " + known + ")");
+}
 
-IkResult solveIkDls(const RobotModel& robot, const Pose& target, const VecX& seed, Rng& rng, const IkOptions& o) {
-  IkResult r;
-  const int n = robot.dof();
-  if (seed.size() != n || !seed.allFinite() || !target.matrix().allFinite()) {
+int closestSolution(const IkResult& r, const VecX& reference) {
+  int best = -1;
+  double d = INFINITY;
+  for (size_t i = 0; i < r.solutions.size(); ++i) {
+    const double di = (r.solutions[i].q - reference).cwiseAbs().maxCoeff();
+    if (di < d) d = di, best = static_cast<int>(i);
+  }
+  return best;
+}
+
+bool validRequest(const RobotModel& robot, const IkRequest& req, IkResult& r) {
+  if (req.seed.size() != robot.dof() || !req.seed.allFinite() || !req.target.matrix().allFinite()) {
     r.status = IkStatus::kInvalidInput;
-    r.reason = "non-finite target or seed of the wrong size";
-    return r;
+    r.reason = "non-finite target or seed, or a seed of the wrong size";
+    return false;
   }
-  const VecX lo = robot.lower().array() + o.limit_margin, hi = robot.upper().array() - o.limit_margin;
-  VecX q(n), dq(n);
-  Jacobian J;
-  Eigen::Matrix<double, 6, 6> A;
-  double best = INFINITY;
-  for (int attempt = 0; attempt < o.max_attempts; ++attempt) {
-    ++r.attempts;
-    if (attempt == 0) {
-      q = seed.cwiseMax(lo).cwiseMin(hi);
-    } else {
-      for (int i = 0; i < n; ++i) q[i] = rng.uniform(lo[i], hi[i]);
-    }
-    for (int it = 0; it < o.max_iterations; ++it) {
-      ++r.iterations;
-      const Eigen::Matrix<double, 6, 1> e = poseError(target, robot.fk(q));
-      const double ep = e.head<3>().norm(), er = e.tail<3>().norm();
-      if (ep + er < best) best = ep + er, r.position_error = ep, r.rotation_error = er;
-      if (ep < o.tol_position && er < o.tol_rotation) {
-        r.status = IkStatus::kSuccess;
-        r.q = q;
-        r.position_error = ep;
-        r.rotation_error = er;
-        return r;
-      }
-      robot.jacobian(q, J);
-      A.noalias() = J * J.transpose();
-      A.diagonal().array() += o.damping * o.damping;
-      dq.noalias() = J.transpose() * A.ldlt().solve(e);
-      const double step = dq.cwiseAbs().maxCoeff();
-      if (step > 0.5) dq *= 0.5 / step;  // trust region [rad]
-      q = (q + dq).cwiseMax(lo).cwiseMin(hi);
-      if (step < 1e-12) break;
-    }
+  const Mat3 R = req.target.linear();
+  if ((R.transpose() * R - Mat3::Identity()).norm() > 1e-6 || R.determinant() < 0) {
+    r.status = IkStatus::kInvalidInput;
+    r.reason = "target orientation is not a rotation";
+    return false;
   }
-  r.status = IkStatus::kNoSolution;
-  r.reason = "no solution within " + std::to_string(o.max_attempts) + " attempts (best error " +
-             std::to_string(r.position_error * 1000) + " mm, " + std::to_string(r.rotation_error) + " rad)";
-  return r;
+  return true;
+}
+
+bool addSolution(IkResult& r, const RobotModel& robot, const IkRequest& req, const VecX& q) {
+  if (!robot.withinLimits(q, req.limit_margin - 1e-12)) return false;
+  const Pose T = robot.fk(q);
+  const double ep = (T.translation() - req.target.translation()).norm();
+  const double er = angleBetween(T.linear(), req.target.linear());
+  if (ep > req.tol_position || er > req.tol_rotation) return false;
+  for (const auto& s : r.solutions)
+    if ((s.q - q).cwiseAbs().maxCoeff() < req.distinct) return false;
+  r.solutions.push_back({q, ep, er});
+  r.status = IkStatus::kSuccess;
+  return true;
 }
 
 }  // namespace mm

@@ -13,6 +13,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr double kSupportTolerance = 0.003;  // [m] held object may touch its support this much
+constexpr double kLimitMargin = 0.05;        // [rad] grasp and place solutions keep off the limits
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 Obstacle boxOf(const ObjectState& o) {
@@ -40,7 +41,8 @@ class Trial {
       : hw_(hw), robot_(robot), statics_(statics), target_(target), o_(o), po_(po),
         rng_perception_(Rng::stream(seed, trial, Purpose::kPerception)),
         rng_ik_(Rng::stream(seed, trial, Purpose::kIk)),
-        rng_plan_(Rng::stream(seed, trial, Purpose::kPlanner)) {}
+        rng_plan_(Rng::stream(seed, trial, Purpose::kPlanner)),
+        ik_(makeIkSolver(o.ik_solver, robot)), ik_near_(makeIkSolver("dls", robot)) {}
 
   TrialOutcome run() {
     if (!pick()) return finish();
@@ -75,16 +77,27 @@ class Trial {
   }
   IkFunction ikNear() {
     return [this](const Pose& T, const VecX& seed, VecX& q) {
-      IkOptions one = o_.ik;
-      one.max_attempts = 1;  // stay on the branch of the seed
+      IkRequest one = o_.ik;
+      one.target = T;
+      one.seed = seed;
+      one.max_attempts = 1;  // a single descent from the seed: stay on its branch
+      one.limit_margin = 0.0;
       // Converged far below the control period's resolution: samples 2 ms apart are differentiated
       // twice, so IK noise of 1e-5 rad would read as accelerations of several rad/s^2.
       one.tol_position = 1e-10;
       one.tol_rotation = 1e-9;
-      const IkResult r = solveIkDls(robot_, T, seed, rng_ik_, one);
-      if (r.ok()) q = r.q;
+      const IkResult r = ik_near_->solve(one, rng_ik_);
+      if (r.ok()) q = r.q();
       return r.ok();
     };
+  }
+  // The configured solver, from `seed`, kept `kLimitMargin` inside the limits.
+  IkResult ikFar(const Pose& T, const VecX& seed) {
+    IkRequest req = o_.ik;
+    req.target = T;
+    req.seed = seed;
+    req.limit_margin = kLimitMargin;
+    return ik_->solve(req, rng_ik_);
   }
   PlanningScene scene(bool with_target, bool attached) const {
     PlanningScene s;
@@ -173,23 +186,21 @@ class Trial {
       const Pose T_grasp = g.T_world_tcp;
       Pose T_pre = T_grasp;
       T_pre.translation().z() += o_.approach_distance;
-      IkOptions iko = o_.ik;
-      iko.limit_margin = 0.05;
-      const IkResult pre = solveIkDls(robot_, T_pre, robot_.home(), rng_ik_, iko);
+      const IkResult pre = ikFar(T_pre, robot_.home());
       if (!pre.ok()) {
         last_stage = "grasp_pose_ik", last_reason = "pre-grasp: " + pre.reason;
         continue;
       }
-      if (!full->isValid(pre.q)) {
+      if (!full->isValid(pre.q())) {
         last_stage = "grasp_pose_ik", last_reason = "pre-grasp configuration in collision (" + full->lastCollision() + ")";
         continue;
       }
-      approach_ = planCartesianLine(robot_, *no_target, pre.q, T_grasp, ikNear(), o_.cartesian);
+      approach_ = planCartesianLine(robot_, *no_target, pre.q(), T_grasp, ikNear(), o_.cartesian);
       if (!approach_.ok) {
         last_stage = "approach", last_reason = approach_.reason;
         continue;
       }
-      q_pre_ = pre.q;
+      q_pre_ = pre.q();
       q_grasp_ = approach_.waypoints.back();
       T_grasp_ = T_grasp;
       T_tcp_object_ = T_grasp.inverse() * target_obj_.T_world_object;
@@ -285,18 +296,16 @@ class Trial {
     for (const auto& [cost, T_place] : options) {
       Pose T_pre = T_place;
       T_pre.translation().z() += o_.approach_distance;
-      IkOptions iko = o_.ik;
-      iko.limit_margin = 0.05;
-      const IkResult pre = solveIkDls(robot_, T_pre, q_lift, rng_ik_, iko);
+      const IkResult pre = ikFar(T_pre, q_lift);
       if (!pre.ok()) {
         last_stage = "place_pose_ik", last_reason = "pre-place: " + pre.reason;
         continue;
       }
-      if (!carrying->isValid(pre.q)) {
+      if (!carrying->isValid(pre.q())) {
         last_stage = "place_pose_ik", last_reason = "pre-place configuration in collision (" + carrying->lastCollision() + ")";
         continue;
       }
-      descend_ = planCartesianLine(robot_, *descending, pre.q, T_place, ikNear(), o_.cartesian);
+      descend_ = planCartesianLine(robot_, *descending, pre.q(), T_place, ikNear(), o_.cartesian);
       if (!descend_.ok) {
         last_stage = "place", last_reason = descend_.reason;
         continue;
@@ -313,7 +322,7 @@ class Trial {
         last_stage = "retreat", last_reason = retreat_.reason;
         continue;
       }
-      q_preplace = pre.q;
+      q_preplace = pre.q();
       found = true;
       break;
     }
@@ -407,6 +416,7 @@ class Trial {
   const TaskOptions& o_;
   const PerceptionOptions& po_;
   Rng rng_perception_, rng_ik_, rng_plan_;
+  std::unique_ptr<IkSolver> ik_, ik_near_;
   TrialOutcome out_;
   double t_sim0_ = 0, home_compute_ = 0, pre_opening_ = 0.04;
   std::vector<ObjectState> objects_;

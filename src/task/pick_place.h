@@ -24,7 +24,8 @@ struct TaskOptions {
   double padding = 0.01;                 ///< [m] robot inflation against the world when planning
   LimitScaling scaling{0.5, 0.5};        ///< fraction of velocity / acceleration limits
   CartesianOptions cartesian;
-  IkOptions ik;
+  std::string ik_solver = "analytic";   ///< see ikSolverNames()
+  IkRequest ik;                          ///< tolerances and budgets of the grasp/place IK
   GraspOptions grasp;
   int max_grasp_candidates = 8;
   double approach_distance = 0.10;       ///< [m] pre-grasp above the grasp

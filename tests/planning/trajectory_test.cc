@@ -68,13 +68,16 @@ TEST(CartesianTrajectory, StraightLineWithinLimits) {
     return Free();
   }();
   Rng rng(3);
+  auto dls = makeIkSolver("dls", r);
   const IkFunction ik = [&](const Pose& T, const VecX& seed, VecX& q) {
-    IkOptions o;
+    IkRequest o;
+    o.target = T;
+    o.seed = seed;
     o.max_attempts = 1;
     o.tol_position = 1e-10;
     o.tol_rotation = 1e-9;
-    const IkResult res = solveIkDls(r, T, seed, rng, o);
-    if (res.ok()) q = res.q;
+    const IkResult res = dls->solve(o, rng);
+    if (res.ok()) q = res.q();
     return res.ok();
   };
   const VecX q0 = r.home();

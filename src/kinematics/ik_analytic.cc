@@ -1,0 +1,92 @@
+// The analytic solver: He & Liu's geometric solution swept over q7, outward from the seed's q7;
+// the first q7 whose solutions fit the joint limits wins (or, asking for several solutions, the
+// sweep goes on until enough distinct ones are found). With `polish`, a q7 sample whose solutions
+// miss the limits only slightly seeds the damped least squares solver (the "hybrid").
+#include <chrono>
+#include <cmath>
+
+#include "kinematics/chain.h"
+#include "kinematics/ik_solvers.h"
+#include "kinematics/panda_analytic.h"
+
+namespace mm {
+namespace {
+
+class AnalyticSolver final : public IkSolver {
+ public:
+  AnalyticSolver(const RobotModel& robot, bool polish) : robot_(robot), ik_(robot), chain_(robot), polish_(polish) {}
+  std::string name() const override { return polish_ ? "hybrid" : "analytic"; }
+
+  IkResult solve(const IkRequest& req, Rng& rng) override {
+    IkResult r;
+    if (!validRequest(robot_, req, r)) return r;
+    const auto t0 = std::chrono::steady_clock::now();
+    const double lo7 = robot_.lower()[6] + req.limit_margin, hi7 = robot_.upper()[6] - req.limit_margin;
+    const double start = std::clamp(req.seed[6], lo7, hi7);
+    // Sweep: the seed's q7, then alternately above and below it, kSamples over the range.
+    constexpr int kSamples = 128;
+    const double step = (hi7 - lo7) / kSamples;
+    std::array<PandaAnalyticIk::Joints, 8> sols;
+    VecX q(7);
+    std::vector<VecX> near_misses;
+    for (int k = 0; k <= 2 * kSamples && r.iterations < req.max_iterations; ++k) {
+      const double q7 = start + (k % 2 ? 1 : -1) * ((k + 1) / 2) * step;
+      if (q7 < lo7 - 1e-12 || q7 > hi7 + 1e-12) continue;
+      ++r.iterations;
+      ++r.attempts;
+      const int n = ik_.solve(req.target, q7, req.seed[0], sols);
+      // Closest to the seed first, so a single answer is the nearest one.
+      std::array<int, 8> order;
+      for (int i = 0; i < n; ++i) order[i] = i;
+      std::sort(order.begin(), order.begin() + n, [&](int a, int b) {
+        return (sols[a] - req.seed).cwiseAbs().maxCoeff() < (sols[b] - req.seed).cwiseAbs().maxCoeff();
+      });
+      for (int i = 0; i < n; ++i) {
+        q = sols[order[i]];
+        if (addSolution(r, robot_, req, q)) {
+          if (static_cast<int>(r.solutions.size()) >= req.max_solutions) return r;
+        } else if (polish_ && near_misses.size() < 16) {
+          near_misses.push_back(q.cwiseMax(robot_.lower()).cwiseMin(robot_.upper()));
+        }
+      }
+      if (!r.solutions.empty() && req.max_solutions <= 1) return r;
+    }
+    if (polish_ && r.solutions.empty()) {
+      // Seeds from the analytic near misses, then random restarts, descended numerically.
+      const VecX lo = robot_.lower().array() + req.limit_margin, hi = robot_.upper().array() - req.limit_margin;
+      for (size_t i = 0; r.attempts < req.max_attempts && r.iterations < req.max_iterations; ++i) {
+        if (i < near_misses.size()) q = near_misses[i].cwiseMax(lo).cwiseMin(hi);
+        else
+          for (int j = 0; j < 7; ++j) q[j] = rng.uniform(lo[j], hi[j]);
+        ++r.attempts;
+        if (dlsDescend(chain_, lo, hi, req.target.linear(), req.target.translation(), req, 60, q, r.iterations) &&
+            addSolution(r, robot_, req, q) && static_cast<int>(r.solutions.size()) >= req.max_solutions)
+          return r;
+        if ((i & 7) == 7 && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > req.time_cap) {
+          r.hit_time_cap = true;
+          break;
+        }
+      }
+    }
+    if (r.solutions.empty()) {
+      r.status = IkStatus::kNoSolution;
+      r.reason = "no solution within the joint limits over " + std::to_string(r.attempts) + " q7 samples" +
+                 (polish_ ? " and numerical restarts" : "");
+    }
+    return r;
+  }
+
+ private:
+  const RobotModel& robot_;
+  PandaAnalyticIk ik_;
+  FastChain chain_;
+  bool polish_;
+};
+
+}  // namespace
+
+std::unique_ptr<IkSolver> makeAnalyticSolver(const RobotModel& robot, bool polish) {
+  return std::make_unique<AnalyticSolver>(robot, polish);
+}
+
+}  // namespace mm

@@ -1,0 +1,87 @@
+// Our numerical IK: Levenberg–Marquardt with damping tied to the error (Sugihara 2011,
+// "Solvability-unconcerned inverse kinematics by the Levenberg–Marquardt method"), on FastChain's
+// analytic Jacobian; joint limits by clamping; deterministic random restarts. No heap allocation
+// inside the loop.
+#include <Eigen/Dense>
+#include <chrono>
+#include <cmath>
+
+#include "kinematics/chain.h"
+#include "kinematics/ik_solvers.h"
+
+namespace mm {
+
+bool dlsDescend(const FastChain& chain, const VecX& lo, const VecX& hi, const Mat3& Rt, const Vec3& pt,
+                const IkRequest& req, int max_iterations, VecX& q, long& iterations) {
+  const int n = chain.dof();
+  FastChain::Jac J;
+  Mat3 R;
+  Vec3 p;
+  Eigen::Matrix<double, 6, 6> A;
+  FastChain::Vec dq(n);
+  double last = INFINITY;
+  for (int it = 0; it < max_iterations; ++it) {
+    ++iterations;
+    chain.fkJacobian(q.data(), R, p, J);
+    const Eigen::Matrix<double, 6, 1> e = poseError(Rt, pt, R, p);
+    const double ep = e.head<3>().norm(), er = e.tail<3>().norm();
+    if (ep < req.tol_position && er < req.tol_rotation) return true;
+    const double E = e.squaredNorm();
+    if (E > 0.999 * last && it > 8) return false;  // stalled (a local minimum or a limit)
+    last = E;
+    A.noalias() = J * J.transpose();
+    A.diagonal().array() += E + 1e-9;
+    dq.noalias() = J.transpose() * A.llt().solve(e);
+    q = (q + dq).cwiseMax(lo).cwiseMin(hi);
+  }
+  return false;
+}
+
+namespace {
+
+class DlsSolver final : public IkSolver {
+ public:
+  explicit DlsSolver(const RobotModel& robot) : robot_(robot), chain_(robot) {}
+  std::string name() const override { return "dls"; }
+
+  IkResult solve(const IkRequest& req, Rng& rng) override {
+    IkResult r;
+    if (!validRequest(robot_, req, r)) return r;
+    const auto t0 = std::chrono::steady_clock::now();
+    const int n = robot_.dof();
+    const VecX lo = robot_.lower().array() + req.limit_margin, hi = robot_.upper().array() - req.limit_margin;
+    const Mat3 Rt = req.target.linear();
+    const Vec3 pt = req.target.translation();
+    VecX q(n);
+    while (r.attempts < req.max_attempts && r.iterations < req.max_iterations) {
+      if (r.attempts == 0) q = req.seed.cwiseMax(lo).cwiseMin(hi);
+      else
+        for (int i = 0; i < n; ++i) q[i] = rng.uniform(lo[i], hi[i]);
+      ++r.attempts;
+      const long left = req.max_iterations - r.iterations;
+      if (dlsDescend(chain_, lo, hi, Rt, pt, req, static_cast<int>(std::min<long>(left, 60)), q, r.iterations) &&
+          addSolution(r, robot_, req, q) && static_cast<int>(r.solutions.size()) >= req.max_solutions)
+        return r;
+      if ((r.attempts & 7) == 0 &&
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > req.time_cap) {
+        r.hit_time_cap = true;
+        break;
+      }
+    }
+    if (r.solutions.empty()) {
+      r.status = IkStatus::kNoSolution;
+      r.reason = "no solution in " + std::to_string(r.attempts) + " attempts, " + std::to_string(r.iterations) + " iterations";
+    }
+    return r;
+  }
+
+ private:
+  const RobotModel& robot_;
+  FastChain chain_;
+};
+
+}  // namespace
+
+std::unique_ptr<IkSolver> makeDlsSolver(const RobotModel& robot) { return std::make_unique<DlsSolver>(robot); }
+
+}  // namespace mm

@@ -1,0 +1,21 @@
+// Constructors of the IK solvers (used by makeIkSolver); each in its own .cc file.
+#pragma once
+#include <memory>
+
+#include "kinematics/ik.h"
+
+namespace mm {
+
+std::unique_ptr<IkSolver> makeDlsSolver(const RobotModel& robot);
+std::unique_ptr<IkSolver> makeAnalyticSolver(const RobotModel& robot, bool polish_with_dls);
+std::unique_ptr<IkSolver> makeKdlSolver(const RobotModel& robot, bool restarts);
+std::unique_ptr<IkSolver> makeTracIkSolver(const RobotModel& robot, bool distance_mode);
+
+/// The damped least squares iteration from one start, for reuse (hybrid, TRAC-IK comparisons):
+/// returns true on convergence to the request's tolerances; `q` holds the last iterate.
+/// `iterations` counts FK+Jacobian evaluations.
+class FastChain;
+bool dlsDescend(const FastChain& chain, const VecX& lower, const VecX& upper, const Mat3& R_target,
+                const Vec3& p_target, const IkRequest& req, int max_iterations, VecX& q, long& iterations);
+
+}  // namespace mm

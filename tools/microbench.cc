@@ -1,0 +1,89 @@
+// Google Benchmark micro-benchmarks: FK, Jacobian and every IK solver on the Panda.
+//   build/minimanip_microbench [--benchmark_filter=...]
+// Poses: FK of uniform random configurations (seed 7); IK seeds at joint mid-range.
+#include <benchmark/benchmark.h>
+
+#include "core/rng.h"
+#include "kinematics/chain.h"
+#include "kinematics/ik.h"
+
+namespace mm {
+namespace {
+
+const RobotModel& panda() {
+  static const RobotModel robot = RobotModel::load(MINIMANIP_SOURCE_DIR "/robots/panda/panda.yaml");
+  return robot;
+}
+
+std::vector<VecX> configs(int n) {
+  Rng rng(7);
+  std::vector<VecX> out;
+  for (int i = 0; i < n; ++i) {
+    VecX q(7);
+    for (int j = 0; j < 7; ++j) q[j] = rng.uniform(panda().lower()[j], panda().upper()[j]);
+    out.push_back(q);
+  }
+  return out;
+}
+
+void BM_FastChainFk(benchmark::State& s) {
+  const FastChain chain(panda());
+  const auto qs = configs(256);
+  Mat3 R;
+  Vec3 p;
+  size_t i = 0;
+  for (auto _ : s) {
+    chain.fk(qs[i++ & 255].data(), R, p);
+    benchmark::DoNotOptimize(p);
+  }
+}
+BENCHMARK(BM_FastChainFk);
+
+void BM_FastChainFkJacobian(benchmark::State& s) {
+  const FastChain chain(panda());
+  const auto qs = configs(256);
+  Mat3 R;
+  Vec3 p;
+  FastChain::Jac J;
+  size_t i = 0;
+  for (auto _ : s) {
+    chain.fkJacobian(qs[i++ & 255].data(), R, p, J);
+    benchmark::DoNotOptimize(J);
+  }
+}
+BENCHMARK(BM_FastChainFkJacobian);
+
+void BM_RobotModelFk(benchmark::State& s) {  // the Isometry-based reference FK
+  const auto qs = configs(256);
+  size_t i = 0;
+  for (auto _ : s) benchmark::DoNotOptimize(panda().fk(qs[i++ & 255]));
+}
+BENCHMARK(BM_RobotModelFk);
+
+void BM_Ik(benchmark::State& s, const std::string& name) {
+  auto solver = makeIkSolver(name, panda());
+  const auto qs = configs(256);
+  std::vector<Pose> targets;
+  for (const auto& q : qs) targets.push_back(panda().fk(q));
+  IkRequest req;
+  req.seed = 0.5 * (panda().lower() + panda().upper());
+  req.time_cap = 0.005;
+  Rng rng(11);
+  size_t i = 0, ok = 0;
+  for (auto _ : s) {
+    req.target = targets[i++ & 255];
+    ok += solver->solve(req, rng).ok();
+  }
+  s.counters["success"] = benchmark::Counter(static_cast<double>(ok) / static_cast<double>(i));
+}
+BENCHMARK_CAPTURE(BM_Ik, analytic, std::string("analytic"));
+BENCHMARK_CAPTURE(BM_Ik, hybrid, std::string("hybrid"));
+BENCHMARK_CAPTURE(BM_Ik, dls, std::string("dls"));
+BENCHMARK_CAPTURE(BM_Ik, kdl, std::string("kdl"));
+BENCHMARK_CAPTURE(BM_Ik, kdl_restarts, std::string("kdl_restarts"));
+BENCHMARK_CAPTURE(BM_Ik, trac_ik, std::string("trac_ik"))->UseRealTime();
+
+}  // namespace
+}  // namespace mm
+
+BENCHMARK_MAIN();
