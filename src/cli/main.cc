@@ -1,12 +1,14 @@
 // minimanip: command-line entry. Parses arguments and calls the campaign layer; nothing else.
 // Exit codes: 0 done, 1 internal error, 2 bad input (nothing run, no results written).
 #include <iostream>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "campaign/bench.h"
 #include "campaign/campaign.h"
 #include "campaign/experiment.h"
+#include "campaign/ik_bench.h"
 #include "core/error.h"
 
 namespace {
@@ -16,6 +18,9 @@ const char* kUsage =
     "  minimanip run EXPERIMENT.yaml [--trials N] [--seed S] [--out DIR] [--jobs N] [--set key=value]...\n"
     "  minimanip bench EXPERIMENT.yaml [--trials N] [--seed S] [--set key=value]...\n"
     "                                harness throughput vs pure MuJoCo stepping of the same trials\n"
+    "  minimanip ik-bench [--robot panda] [--poses 1000] [--seed S] [--budget 5ms] [--solvers a,b]\n"
+    "                     [--sets random,bin,singular,limits] [--distinct N] [--out DIR]\n"
+    "                                every IK solver on the same poses and seeds\n"
     "  minimanip config-doc          print every experiment key as a Markdown table\n"
     "  minimanip help\n";
 
@@ -52,6 +57,67 @@ int run(const std::vector<std::string>& args, const std::string& command_line, b
   return 0;
 }
 
+std::vector<std::string> splitList(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  for (std::string item; std::getline(ss, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+// "5ms", "500us", "0.01s" or a number of seconds.
+double parseDuration(const std::string& flag, const std::string& v) {
+  size_t end = 0;
+  double x = 0;
+  try {
+    x = std::stod(v, &end);
+  } catch (const std::exception&) {
+    throw mm::InputError(flag, "expected a duration like 5ms, got '" + v + "'");
+  }
+  const std::string unit = v.substr(end);
+  const double scale = unit == "ms" ? 1e-3 : unit == "us" ? 1e-6 : (unit == "s" || unit.empty()) ? 1.0 : -1.0;
+  if (scale < 0 || !(x > 0)) throw mm::InputError(flag, "expected a positive duration like 5ms, got '" + v + "'");
+  return x * scale;
+}
+
+long parseCount(const std::string& flag, const std::string& v, long lo, long hi) {
+  size_t end = 0;
+  long x = 0;
+  try {
+    x = std::stol(v, &end);
+  } catch (const std::exception&) {
+    end = 0;
+  }
+  if (end != v.size() || x < lo || x > hi)
+    throw mm::InputError(flag, "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got '" + v + "'");
+  return x;
+}
+
+int ikBench(const std::vector<std::string>& args, const std::string& command_line) {
+  mm::IkBenchOptions o;
+  o.scene = "scenes/bin_table.xml";
+  o.command_line = command_line;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= args.size()) throw mm::InputError(a, "expected a value after " + a);
+      return args[++i];
+    };
+    if (a == "--robot") o.robot = value();
+    else if (a == "--poses") o.poses = static_cast<int>(parseCount(a, value(), 1, 10000000));
+    else if (a == "--seed") o.seed = static_cast<uint64_t>(parseCount(a, value(), 0, 9007199254740992L));
+    else if (a == "--budget") o.budget = parseDuration(a, value());
+    else if (a == "--solvers") o.solvers = splitList(value());
+    else if (a == "--sets") o.sets = splitList(value());
+    else if (a == "--distinct") o.distinct_poses = static_cast<int>(parseCount(a, value(), 0, 1000000));
+    else if (a == "--scene") o.scene = value();
+    else if (a == "--out") o.out_dir = value();
+    else throw mm::InputError(a, std::string("unknown option\n") + kUsage);
+  }
+  std::cout << mm::runIkBench(o) << "Results: " << o.out_dir << "/ (ik_bench.json, ik_bench.md)\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -64,6 +130,7 @@ int main(int argc, char** argv) {
       return args.empty() ? 2 : 0;
     }
     if (args[0] == "run") return run({args.begin() + 1, args.end()}, command_line, false);
+    if (args[0] == "ik-bench") return ikBench({args.begin() + 1, args.end()}, command_line);
     if (args[0] == "bench") return run({args.begin() + 1, args.end()}, command_line, true);
     if (args[0] == "config-doc") {
       std::cout << mm::ParamSet(mm::experimentParams()).toMarkdown();

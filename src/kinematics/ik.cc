@@ -53,8 +53,9 @@ bool validRequest(const RobotModel& robot, const IkRequest& req, IkResult& r) {
 bool addSolution(IkResult& r, const RobotModel& robot, const IkRequest& req, const VecX& q) {
   if (!robot.withinLimits(q, req.limit_margin - 1e-12)) return false;
   const Pose T = robot.fk(q);
-  const double ep = (T.translation() - req.target.translation()).norm();
-  const double er = angleBetween(T.linear(), req.target.linear());
+  // The log map, not acos of the trace: acos cannot resolve angles under ~1e-8 rad.
+  const auto e = poseError(req.target.linear(), req.target.translation(), T.linear(), T.translation());
+  const double ep = e.head<3>().norm(), er = e.tail<3>().norm();
   if (ep > req.tol_position || er > req.tol_rotation) return false;
   for (const auto& s : r.solutions)
     if ((s.q - q).cwiseAbs().maxCoeff() < req.distinct) return false;

@@ -14,7 +14,13 @@ namespace {
 
 class AnalyticSolver final : public IkSolver {
  public:
-  AnalyticSolver(const RobotModel& robot, bool polish) : robot_(robot), ik_(robot), chain_(robot), polish_(polish) {}
+  AnalyticSolver(const RobotModel& robot, bool polish) : robot_(robot), ik_(robot), chain_(robot), polish_(polish) {
+    // Sample fractions of the q7 range: -1 stands for the seed's q7; then levels of a dyadic
+    // grid (1/2; 1/4, 3/4; 1/8, ...) down to 1/512 of the range (about 0.01 rad for the Panda).
+    order_.push_back(-1);
+    for (int level = 1; level <= 9; ++level)
+      for (int k = 1; k < (1 << level); k += 2) order_.push_back(static_cast<double>(k) / (1 << level));
+  }
   std::string name() const override { return polish_ ? "hybrid" : "analytic"; }
 
   IkResult solve(const IkRequest& req, Rng& rng) override {
@@ -23,20 +29,18 @@ class AnalyticSolver final : public IkSolver {
     const auto t0 = std::chrono::steady_clock::now();
     const double lo7 = robot_.lower()[6] + req.limit_margin, hi7 = robot_.upper()[6] - req.limit_margin;
     const double start = std::clamp(req.seed[6], lo7, hi7);
-    // Sweep: the seed's q7, then alternately above and below it, kSamples over the range.
-    constexpr int kSamples = 128;
-    const double step = (hi7 - lo7) / kSamples;
-    std::array<PandaAnalyticIk::Joints, 8> sols;
+    std::array<PandaAnalyticIk::Joints, 16> sols;
     VecX q(7);
     std::vector<VecX> near_misses;
-    for (int k = 0; k <= 2 * kSamples && r.iterations < req.max_iterations; ++k) {
-      const double q7 = start + (k % 2 ? 1 : -1) * ((k + 1) / 2) * step;
-      if (q7 < lo7 - 1e-12 || q7 > hi7 + 1e-12) continue;
+    for (const double f : order_) {
+      if (r.iterations >= req.max_iterations) break;
+      // The seed's q7 first, then coarse to fine over the range, nearest the seed first per level.
+      const double q7 = f < 0 ? start : lo7 + f * (hi7 - lo7);
       ++r.iterations;
       ++r.attempts;
       const int n = ik_.solve(req.target, q7, req.seed[0], sols);
       // Closest to the seed first, so a single answer is the nearest one.
-      std::array<int, 8> order;
+      std::array<int, 16> order;
       for (int i = 0; i < n; ++i) order[i] = i;
       std::sort(order.begin(), order.begin() + n, [&](int a, int b) {
         return (sols[a] - req.seed).cwiseAbs().maxCoeff() < (sols[b] - req.seed).cwiseAbs().maxCoeff();
@@ -81,6 +85,7 @@ class AnalyticSolver final : public IkSolver {
   PandaAnalyticIk ik_;
   FastChain chain_;
   bool polish_;
+  std::vector<double> order_;
 };
 
 }  // namespace

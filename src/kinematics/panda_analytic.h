@@ -19,9 +19,12 @@ class PandaAnalyticIk {
   explicit PandaAnalyticIk(const RobotModel& robot);
   /// All solutions for T_base_tcp with joint 7 at q7 [rad] (up to 8, usually 4), not yet checked
   /// against the limits of joints 1-6. `q1_singular` is used when the upper arm is vertical.
-  int solve(const Pose& T_base_tcp, double q7, double q1_singular, std::array<Joints, 8>& out) const;
+  /// Joint 6's range is wider than pi: a solution with q6 in (-pi, pi] below its lower limit
+  /// is also returned with q6 + 2 pi (so up to 16 in total).
+  int solve(const Pose& T_base_tcp, double q7, double q1_singular, std::array<Joints, 16>& out) const;
 
  private:
+  double q6_lower_;
   double d1_, d3_, a4_, a5_, d5_, a7_, alpha7_;
   Pose T_tcp_inv_;  ///< (T_flange_tcp)^-1
 };
