@@ -317,6 +317,17 @@ class TracIkSolver final : public IkSolver {
 
 }  // namespace
 
+Pose kdlForwardKinematics(const RobotModel& robot, const VecX& q) {
+  const KDL::Chain chain = kdlChain(robot);
+  KDL::ChainFkSolverPos_recursive fk(chain);
+  KDL::Frame f;
+  fk.JntToCart(toJnt(q), f);
+  Mat3 R;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) R(r, c) = f.M(r, c);
+  return makePose(Vec3(f.p.x(), f.p.y(), f.p.z()), R);
+}
+
 std::unique_ptr<IkSolver> makeKdlSolver(const RobotModel& robot, bool restarts) {
   return std::make_unique<KdlSolver>(robot, restarts);
 }

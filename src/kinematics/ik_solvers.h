@@ -11,6 +11,9 @@ std::unique_ptr<IkSolver> makeAnalyticSolver(const RobotModel& robot, bool polis
 std::unique_ptr<IkSolver> makeKdlSolver(const RobotModel& robot, bool restarts);
 std::unique_ptr<IkSolver> makeTracIkSolver(const RobotModel& robot, bool distance_mode);
 
+/// orocos-KDL's forward kinematics of the chain the KDL-based solvers build (for tests).
+Pose kdlForwardKinematics(const RobotModel& robot, const VecX& q);
+
 /// The damped least squares iteration from one start, for reuse (hybrid, TRAC-IK comparisons):
 /// returns true on convergence to the request's tolerances; `q` holds the last iterate.
 /// `iterations` counts FK+Jacobian evaluations.
