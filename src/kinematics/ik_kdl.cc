@@ -204,8 +204,10 @@ class TracIkSolver final : public IkSolver {
   // Newton-Raphson on KDL's pseudo-inverse, clamped to the limits, restarting when it stalls.
   void runNewton(const IkRequest& req, Rng rng, Race& race, long budget, Clock::time_point t0, long& units,
                  int& attempts, std::atomic<bool>& capped) const {
-    KDL::ChainFkSolverPos_recursive fk(chain_);
-    KDL::ChainIkSolverVel_pinv vel(chain_);
+    // KDL::Joint caches its last pose in mutable members: each thread needs its own chain.
+    const KDL::Chain chain = chain_;
+    KDL::ChainFkSolverPos_recursive fk(chain);
+    KDL::ChainIkSolverVel_pinv vel(chain);
     const int n = robot_.dof();
     const VecX lo = robot_.lower().array() + req.limit_margin, hi = robot_.upper().array() - req.limit_margin;
     const KDL::Frame target = toKdl(req.target);
@@ -243,8 +245,9 @@ class TracIkSolver final : public IkSolver {
               std::atomic<bool>& capped) const {
     const int n = robot_.dof();
     const VecX lo = robot_.lower().array() + req.limit_margin, hi = robot_.upper().array() - req.limit_margin;
-    KDL::ChainFkSolverPos_recursive fk(chain_);
-    KDL::ChainJntToJacSolver jac(chain_);
+    const KDL::Chain chain = chain_;  // a private copy: KDL::Joint's pose cache is not thread-safe
+    KDL::ChainFkSolverPos_recursive fk(chain);
+    KDL::ChainJntToJacSolver jac(chain);
     const KDL::Frame target = toKdl(req.target);
     struct Ctx {
       const TracIkSolver* self;
