@@ -125,7 +125,9 @@ std::string runIkBench(const IkBenchOptions& o) {
   const std::string robot_path = o.robot.find('/') == std::string::npos && o.robot.find(".yaml") == std::string::npos
                                      ? std::string("robots/") + o.robot + "/" + o.robot + ".yaml"
                                      : o.robot;
-  const RobotModel robot = RobotModel::load(robot_path);
+  if (o.tip != "tcp" && o.tip != "flange") throw InputError("--tip " + o.tip, "expected tcp or flange");
+  const RobotModel loaded = RobotModel::load(robot_path);
+  const RobotModel robot = o.tip == "flange" ? loaded.withFlangeTip() : loaded;
   std::vector<std::string> names = o.solvers.empty() ? ikSolverNames() : o.solvers;
   std::vector<std::unique_ptr<IkSolver>> solvers;
   for (const auto& name : names) solvers.push_back(makeIkSolver(name, robot));  // InputError on a bad name
@@ -148,6 +150,7 @@ std::string runIkBench(const IkBenchOptions& o) {
   json j;
   j["command"] = o.command_line;
   j["robot"] = robot_path;
+  j["tip"] = o.tip;
   j["seed"] = o.seed;
   j["poses_per_set"] = o.poses;
   j["settings"] = {{"seed_configuration", "joint mid-range"}, {"tol_position_m", 1e-5}, {"tol_rotation_rad", 1e-5},
@@ -156,8 +159,8 @@ std::string runIkBench(const IkBenchOptions& o) {
   std::ostringstream md;
   md << std::fixed;
   md << "IK benchmark: `" << o.command_line << "`\n\n";
-  md << "Robot " << robot_path << "; " << o.poses << " poses per set, seed " << o.seed
-     << "; seed configuration at joint mid-range; tolerance 1e-5 m and 1e-5 rad; budget "
+  md << "Robot " << robot_path << " (tip: " << o.tip << "); " << o.poses << " poses per set, seed " << o.seed
+     << "; seed configuration at joint mid-range; tolerance 1e-5 m and 1e-5 rad; budget " << std::setprecision(3)
      << o.budget * 1000 << " ms per solve (wall-clock cap); " << cpuModel() << ", "
      << std::thread::hardware_concurrency() << " cores. Times are wall time per solve.\n\n";
   json jsets = json::object();

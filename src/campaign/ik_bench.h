@@ -11,6 +11,7 @@ namespace mm {
 struct IkBenchOptions {
   std::string robot = "panda";          ///< a name under robots/ or a path to a robot YAML
   std::string scene;                    ///< scene MJCF for the "bin" set
+  std::string tip = "tcp";              ///< "tcp" or "flange": the frame the poses are for
   int poses = 1000;                     ///< per set
   uint64_t seed = 1;
   double budget = 0.005;                ///< [s] wall-clock cap per solve

@@ -19,7 +19,7 @@ const char* kUsage =
     "  minimanip bench EXPERIMENT.yaml [--trials N] [--seed S] [--set key=value]...\n"
     "                                harness throughput vs pure MuJoCo stepping of the same trials\n"
     "  minimanip ik-bench [--robot panda] [--poses 1000] [--seed S] [--budget 5ms] [--solvers a,b]\n"
-    "                     [--sets random,bin,singular,limits] [--distinct N] [--out DIR]\n"
+    "                     [--sets random,bin,singular,limits] [--tip tcp|flange] [--distinct N] [--out DIR]\n"
     "                                every IK solver on the same poses and seeds\n"
     "  minimanip config-doc          print every experiment key as a Markdown table\n"
     "  minimanip help\n";
@@ -111,6 +111,7 @@ int ikBench(const std::vector<std::string>& args, const std::string& command_lin
     else if (a == "--sets") o.sets = splitList(value());
     else if (a == "--distinct") o.distinct_poses = static_cast<int>(parseCount(a, value(), 0, 1000000));
     else if (a == "--scene") o.scene = value();
+    else if (a == "--tip") o.tip = value();
     else if (a == "--out") o.out_dir = value();
     else throw mm::InputError(a, std::string("unknown option\n") + kUsage);
   }

@@ -25,6 +25,9 @@ struct IkRequest {
   double limit_margin = 0.0;       ///< solutions keep this far inside the joint limits [rad]
   int max_solutions = 1;           ///< stop once this many distinct solutions are found
   double distinct = 0.1;           ///< [rad] solutions closer than this (max-norm) count as one
+  /// Return the solution nearest the seed (Euclidean in joint space) rather than the first found:
+  /// what motion planning wants, at some extra cost (the analytic solver sweeps q7 and refines).
+  bool nearest = false;
 };
 
 struct IkSolution {

@@ -30,6 +30,7 @@ class AnalyticSolver final : public IkSolver {
     const double lo7 = robot_.lower()[6] + req.limit_margin, hi7 = robot_.upper()[6] - req.limit_margin;
     const double start = std::clamp(req.seed[6], lo7, hi7);
     std::array<PandaAnalyticIk::Joints, 16> sols;
+    if (req.nearest && req.max_solutions <= 1) return nearest(req, lo7, hi7);
     VecX q(7);
     std::vector<VecX> near_misses;
     for (const double f : order_) {
@@ -81,6 +82,58 @@ class AnalyticSolver final : public IkSolver {
   }
 
  private:
+  // The solution nearest the seed: q7 on a 64-sample grid, plus fine samples around the seed's own
+  // q7 (its branch may be feasible only in a narrow q7 interval), then three local refinements
+  // around the best q7 (spacing /8 each, down to 1.4e-4 rad for the Panda). Candidates are ranked by distance first; only the winner
+  // pays for the FK check.
+  IkResult nearest(const IkRequest& req, double lo7, double hi7) {
+    IkResult r;
+    std::array<PandaAnalyticIk::Joints, 16> sols;
+    const VecX lo = robot_.lower().array() + req.limit_margin, hi = robot_.upper().array() - req.limit_margin;
+    std::vector<std::pair<double, VecX>> ranked;  // (distance, q), best kept first
+    double best_q7 = std::clamp(req.seed[6], lo7, hi7);
+    auto sample = [&](double q7) {
+      if (q7 < lo7 || q7 > hi7) return;
+      ++r.iterations;
+      ++r.attempts;
+      const int n = ik_.solve(req.target, q7, req.seed[0], sols);
+      for (int i = 0; i < n; ++i) {
+        const VecX q = sols[i];
+        if ((q.array() < lo.array()).any() || (q.array() > hi.array()).any()) continue;
+        const double d = (q - req.seed).squaredNorm();
+        if (ranked.empty() || d < ranked.front().first) {
+          ranked.insert(ranked.begin(), {d, q});
+          best_q7 = q7;
+        } else {
+          ranked.push_back({d, q});
+        }
+      }
+    };
+    const double seed_q7 = best_q7;
+    const int kGrid = 64;
+    double spacing = (hi7 - lo7) / kGrid;
+    sample(seed_q7);
+    for (int k = 1; k <= 8; ++k) {
+      sample(seed_q7 + k * spacing / 8);
+      sample(seed_q7 - k * spacing / 8);
+    }
+    for (int k = 0; k <= kGrid; ++k) sample(lo7 + k * spacing);
+    for (int level = 0; level < 3 && !ranked.empty(); ++level) {
+      const double center = best_q7;
+      spacing /= 8;
+      for (int k = -8; k <= 8; ++k)
+        if (k != 0) sample(center + k * spacing);
+    }
+    std::stable_sort(ranked.begin(), ranked.end(), [](auto& a, auto& b) { return a.first < b.first; });
+    for (const auto& [d, q] : ranked)
+      if (addSolution(r, robot_, req, q)) break;  // the nearest that passes the FK check
+    if (r.solutions.empty()) {
+      r.status = IkStatus::kNoSolution;
+      r.reason = "no solution within the joint limits over " + std::to_string(r.attempts) + " q7 samples";
+    }
+    return r;
+  }
+
   const RobotModel& robot_;
   PandaAnalyticIk ik_;
   FastChain chain_;

@@ -61,6 +61,13 @@ class RobotModel {
   const std::vector<CollisionShape>& collisionShapes() const { return shapes_; }
   int linkIndex(const std::string& name) const;  ///< -1 if absent
   const Pose& T_flange_tcp() const { return T_last_tcp_; }
+  /// A copy whose tip is the flange (the last joint's frame) instead of the TCP, for comparisons
+  /// with IK figures published for the flange.
+  RobotModel withFlangeTip() const {
+    RobotModel m = *this;
+    m.T_last_tcp_ = Pose::Identity();
+    return m;
+  }
   /// The chain as FK uses it: frame_k = frame_{k-1} * jointOrigin(k) * Rot(jointAxis(k), q_k),
   /// then T_base_tcp = frame_dof * T_flange_tcp().
   const Pose& jointOrigin(int k) const { return T_pre_[k]; }

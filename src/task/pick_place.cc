@@ -97,6 +97,7 @@ class Trial {
     req.target = T;
     req.seed = seed;
     req.limit_margin = kLimitMargin;
+    req.nearest = true;  // the least joint motion from where the arm will be
     return ik_->solve(req, rng_ik_);
   }
   PlanningScene scene(bool with_target, bool attached) const {

@@ -164,3 +164,31 @@ TEST(IkSolvers, UnknownSolverIsAnInputError) {
 
 }  // namespace
 }  // namespace mm
+
+namespace mm {
+namespace {
+
+// Nearest mode: for a target made from configuration q and a seed within 0.05 rad of q, the answer
+// is at least as near the seed as q itself (q being one valid answer), so on q's branch.
+// 40 random configurations, seed 23, analytic solver.
+TEST(IkSolvers, NearestModeReturnsTheBranchOfTheSeed) {
+  auto solver = makeIkSolver("analytic", panda());
+  Rng rng(23), noise(24);
+  for (int i = 0; i < 40; ++i) {
+    VecX q = randomConfig(rng);
+    for (int j = 0; j < 7; ++j) q[j] = std::clamp(q[j], panda().lower()[j] + 0.06, panda().upper()[j] - 0.06);
+    IkRequest req;
+    req.target = panda().fk(q);
+    req.seed = q;
+    for (int j = 0; j < 7; ++j) req.seed[j] += noise.uniform(-0.05, 0.05);
+    req.nearest = true;
+    const IkResult r = solver->solve(req, noise);
+    ASSERT_TRUE(r.ok()) << r.reason;
+    // q7 is sampled down to 1.4e-4 rad; joints may move ~20x faster along the self-motion manifold.
+    EXPECT_LE((r.q() - req.seed).norm(), (q - req.seed).norm() + 3e-3) << "configuration " << i;
+    EXPECT_LT((r.q() - q).cwiseAbs().maxCoeff(), 0.3) << "configuration " << i;
+  }
+}
+
+}  // namespace
+}  // namespace mm
