@@ -1,7 +1,7 @@
 // Our numerical IK: Levenberg–Marquardt with damping tied to the error (Sugihara 2011,
 // "Solvability-unconcerned inverse kinematics by the Levenberg–Marquardt method"), on FastChain's
-// analytic Jacobian; joint limits by clamping; deterministic random restarts. No heap allocation
-// inside the loop.
+// analytic Jacobian; joint limits by clamping; deterministic random restarts. The solver's working
+// vectors are preallocated: a solve allocates only the solution it returns.
 #include <Eigen/Dense>
 #include <chrono>
 #include <cmath>
@@ -41,7 +41,8 @@ namespace {
 
 class DlsSolver final : public IkSolver {
  public:
-  explicit DlsSolver(const RobotModel& robot) : robot_(robot), chain_(robot) {}
+  explicit DlsSolver(const RobotModel& robot)
+      : robot_(robot), chain_(robot), lo_(robot.dof()), hi_(robot.dof()), q_(robot.dof()) {}
   std::string name() const override { return "dls"; }
 
   IkResult solve(const IkRequest& req, Rng& rng) override {
@@ -49,10 +50,11 @@ class DlsSolver final : public IkSolver {
     if (!validRequest(robot_, req, r)) return r;
     const auto t0 = std::chrono::steady_clock::now();
     const int n = robot_.dof();
-    const VecX lo = robot_.lower().array() + req.limit_margin, hi = robot_.upper().array() - req.limit_margin;
+    VecX &lo = lo_, &hi = hi_, &q = q_;
+    lo = robot_.lower().array() + req.limit_margin;
+    hi = robot_.upper().array() - req.limit_margin;
     const Mat3 Rt = req.target.linear();
     const Vec3 pt = req.target.translation();
-    VecX q(n);
     while (r.attempts < req.max_attempts && r.iterations < req.max_iterations) {
       if (r.attempts == 0) q = req.seed.cwiseMax(lo).cwiseMin(hi);
       else
@@ -78,6 +80,7 @@ class DlsSolver final : public IkSolver {
  private:
   const RobotModel& robot_;
   FastChain chain_;
+  VecX lo_, hi_, q_;  // working storage, sized once
 };
 
 }  // namespace
