@@ -6,6 +6,8 @@
 #include "core/rng.h"
 #include "kinematics/chain.h"
 #include "kinematics/ik.h"
+#include "planning/collision.h"
+#include "sim/sim_world.h"
 
 namespace mm {
 namespace {
@@ -53,6 +55,17 @@ void BM_FastChainFkJacobian(benchmark::State& s) {
 }
 BENCHMARK(BM_FastChainFkJacobian);
 
+void BM_RobotModelLinkPoses(benchmark::State& s) {  // every link's pose (collision checking)
+  const auto qs = configs(256);
+  std::vector<Pose> T;
+  size_t i = 0;
+  for (auto _ : s) {
+    panda().linkPoses(qs[i++ & 255], 0.04, T);
+    benchmark::DoNotOptimize(T.data());
+  }
+}
+BENCHMARK(BM_RobotModelLinkPoses);
+
 void BM_RobotModelFk(benchmark::State& s) {  // the Isometry-based reference FK
   const auto qs = configs(256);
   size_t i = 0;
@@ -82,6 +95,29 @@ BENCHMARK_CAPTURE(BM_Ik, dls, std::string("dls"));
 BENCHMARK_CAPTURE(BM_Ik, kdl, std::string("kdl"));
 BENCHMARK_CAPTURE(BM_Ik, kdl_restarts, std::string("kdl_restarts"));
 BENCHMARK_CAPTURE(BM_Ik, trac_ik, std::string("trac_ik"))->UseRealTime();
+
+// Collision checks of random states against the bin scene (table, bin, tray, three cubes), 1 cm
+// padding; about 42% of uniform random states collide there.
+void BM_Checker(benchmark::State& s, const std::string& name) {
+  auto world = SimWorld::load(MINIMANIP_SOURCE_DIR "/scenes/bin_table.xml", panda());
+  PlanningScene scene;
+  scene.obstacles = world->staticObstacles();
+  for (const Vec3& c : {Vec3(0.45, -0.2, 0.035), Vec3(0.55, -0.3, 0.035), Vec3(0.5, -0.15, 0.035)}) {
+    Obstacle o;
+    o.size = Vec3::Constant(0.025);
+    o.T_world = makePose(c, Mat3::Identity());
+    o.name = "cube";
+    scene.obstacles.push_back(o);
+  }
+  auto checker = makeChecker(name, panda(), scene, 0.01);
+  const auto qs = configs(1024);
+  size_t i = 0, valid = 0;
+  for (auto _ : s) valid += checker->isValid(qs[i++ & 1023]);
+  s.counters["valid"] = benchmark::Counter(static_cast<double>(valid) / static_cast<double>(i));
+}
+BENCHMARK_CAPTURE(BM_Checker, fcl, std::string("fcl"));
+BENCHMARK_CAPTURE(BM_Checker, spheres, std::string("spheres"));
+BENCHMARK_CAPTURE(BM_Checker, spheres_fcl, std::string("spheres+fcl"));
 
 }  // namespace
 }  // namespace mm

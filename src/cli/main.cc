@@ -9,6 +9,7 @@
 #include "campaign/campaign.h"
 #include "campaign/experiment.h"
 #include "campaign/ik_bench.h"
+#include "campaign/plan_bench.h"
 #include "core/error.h"
 
 namespace {
@@ -21,6 +22,9 @@ const char* kUsage =
     "  minimanip ik-bench [--robot panda] [--poses 1000] [--seed S] [--budget 5ms] [--solvers a,b]\n"
     "                     [--sets random,bin,singular,limits] [--tip tcp|flange] [--distinct N] [--out DIR]\n"
     "                                every IK solver on the same poses and seeds\n"
+    "  minimanip plan-bench [--scenes 20] [--seed S] [--planners a,b] [--checkers spheres,spheres+fcl,fcl]\n"
+    "                       [--time-limit 5] [--padding 0.01] [--no-simplify] [--out DIR]\n"
+    "                                planners x checkers x time parameterizations on bin-scene problems\n"
     "  minimanip config-doc          print every experiment key as a Markdown table\n"
     "  minimanip help\n";
 
@@ -119,6 +123,35 @@ int ikBench(const std::vector<std::string>& args, const std::string& command_lin
   return 0;
 }
 
+int planBench(const std::vector<std::string>& args, const std::string& command_line) {
+  mm::PlanBenchOptions o;
+  o.command_line = command_line;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= args.size()) throw mm::InputError(a, "expected a value after " + a);
+      return args[++i];
+    };
+    if (a == "--scenes") o.scenes = static_cast<int>(parseCount(a, value(), 1, 100000));
+    else if (a == "--seed") o.seed = static_cast<uint64_t>(parseCount(a, value(), 0, 9007199254740992L));
+    else if (a == "--planners") o.planners = splitList(value());
+    else if (a == "--checkers") o.checkers = splitList(value());
+    else if (a == "--time-limit") o.time_limit = parseDuration(a, value());
+    else if (a == "--padding") {
+      const std::string v = value();
+      char* end = nullptr;
+      o.padding = std::strtod(v.c_str(), &end);
+      if (!end || *end || !(o.padding >= 0 && o.padding <= 0.1)) throw mm::InputError(a, "expected a padding in [0, 0.1] m, got '" + v + "'");
+    } else if (a == "--no-simplify") o.simplify = false;
+    else if (a == "--robot") o.robot = value();
+    else if (a == "--scene") o.scene = value();
+    else if (a == "--out") o.out_dir = value();
+    else throw mm::InputError(a, std::string("unknown option\n") + kUsage);
+  }
+  std::cout << mm::runPlanBench(o) << "Results: " << o.out_dir << "/ (plan_bench.json, plan_bench.md, plan_bench.log)\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -131,6 +164,7 @@ int main(int argc, char** argv) {
       return args.empty() ? 2 : 0;
     }
     if (args[0] == "run") return run({args.begin() + 1, args.end()}, command_line, false);
+    if (args[0] == "plan-bench") return planBench({args.begin() + 1, args.end()}, command_line);
     if (args[0] == "ik-bench") return ikBench({args.begin() + 1, args.end()}, command_line);
     if (args[0] == "bench") return run({args.begin() + 1, args.end()}, command_line, true);
     if (args[0] == "config-doc") {

@@ -45,4 +45,18 @@ class CollisionChecker {
 /// the home configuration (as MoveIt's setup assistant's "adjacent" and "default" rules).
 std::unique_ptr<CollisionChecker> makeFclChecker(const RobotModel& robot, const PlanningScene& scene, double padding);
 
+/// Our fast checker: the robot's primitives covered by spheres (conservative: never free where FCL
+/// with the same padding finds a collision), exact sphere-vs-primitive tests, no allocation per
+/// check. With `confirm_with_fcl`, a sphere hit is confirmed by FCL, so answers equal FCL's.
+std::unique_ptr<CollisionChecker> makeSphereChecker(const RobotModel& robot, const PlanningScene& scene, double padding,
+                                                    bool confirm_with_fcl);
+
+/// Smallest distance [m] between the robot's links (no padding; the base excluded) and the
+/// scene's obstacles at q, by FCL; negative depth is reported as 0.
+double clearance(const RobotModel& robot, const PlanningScene& scene, const VecX& q);
+
+/// "fcl", "spheres" or "spheres+fcl"; throws InputError for another name.
+std::unique_ptr<CollisionChecker> makeChecker(const std::string& name, const RobotModel& robot, const PlanningScene& scene,
+                                              double padding);
+
 }  // namespace mm

@@ -167,6 +167,34 @@ class FclChecker final : public CollisionChecker {
 
 }  // namespace
 
+double clearance(const RobotModel& robot, const PlanningScene& scene, const VecX& q) {
+  std::vector<Pose> T;
+  robot.linkPoses(q, scene.finger_opening, T);
+  std::vector<Body> world;
+  for (const auto& o : scene.obstacles)
+    if (std::find(scene.ignore.begin(), scene.ignore.end(), o.name) == scene.ignore.end()) world.push_back(obstacleShape(o));
+  double best = INFINITY;
+  for (const auto& s : robot.collisionShapes()) {
+    if (robot.links()[s.link].frame == 0) continue;
+    const Body b = robotShape(s, 0.0);
+    for (const Body& o : world) {
+      fcl::DistanceRequestd req;
+      fcl::DistanceResultd res;
+      fcl::distance(b.geom.get(), toFcl(T[s.link] * b.T_local), o.geom.get(), toFcl(o.T_local), req, res);
+      best = std::min(best, std::max(0.0, res.min_distance));
+    }
+  }
+  return best;
+}
+
+std::unique_ptr<CollisionChecker> makeChecker(const std::string& name, const RobotModel& robot, const PlanningScene& scene,
+                                              double padding) {
+  if (name == "fcl") return makeFclChecker(robot, scene, padding);
+  if (name == "spheres") return makeSphereChecker(robot, scene, padding, false);
+  if (name == "spheres+fcl") return makeSphereChecker(robot, scene, padding, true);
+  throw InputError("collision checker '" + name + "'", "unknown checker (expected fcl, spheres or spheres+fcl)");
+}
+
 std::unique_ptr<CollisionChecker> makeFclChecker(const RobotModel& robot, const PlanningScene& scene, double padding) {
   return std::make_unique<FclChecker>(robot, scene, padding);
 }

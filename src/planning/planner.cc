@@ -4,11 +4,21 @@
 #include <ompl/base/spaces/RealVectorStateSpace.h>
 #include <ompl/geometric/PathGeometric.h>
 #include <ompl/geometric/PathSimplifier.h>
+#include <ompl/base/objectives/PathLengthOptimizationObjective.h>
+#include <ompl/geometric/planners/informedtrees/ABITstar.h>
+#include <ompl/geometric/planners/informedtrees/AITstar.h>
+#include <ompl/geometric/planners/informedtrees/BITstar.h>
+#include <ompl/geometric/planners/kpiece/KPIECE1.h>
+#include <ompl/geometric/planners/prm/LazyPRMstar.h>
+#include <ompl/geometric/planners/prm/PRMstar.h>
+#include <ompl/geometric/planners/rrt/InformedRRTstar.h>
 #include <ompl/geometric/planners/rrt/RRTConnect.h>
+#include <ompl/geometric/planners/rrt/RRTstar.h>
 #include <ompl/config.h>
 #include <ompl/util/Console.h>
 
 #include <chrono>
+#include <limits>
 #include <mutex>
 
 #include "core/rng.h"
@@ -36,6 +46,21 @@ class SeededSimplifier : public og::PathSimplifier {
   SeededSimplifier(const ob::SpaceInformationPtr& si, uint32_t seed) : og::PathSimplifier(si) { rng_.setLocalSeed(seed); }
 };
 
+// Planners by name. RRTConnect is seeded locally (the campaign plans in parallel threads); the
+// others draw on OMPL's global seed generator, deterministic in a single-threaded process.
+ob::PlannerPtr makePlanner(const std::string& name, const ob::SpaceInformationPtr& si, uint32_t seed) {
+  if (name == "RRTConnect") return std::make_shared<SeededRRTConnect>(si, seed);
+  if (name == "RRTstar") return std::make_shared<og::RRTstar>(si);
+  if (name == "InformedRRTstar") return std::make_shared<og::InformedRRTstar>(si);
+  if (name == "BITstar") return std::make_shared<og::BITstar>(si);
+  if (name == "ABITstar") return std::make_shared<og::ABITstar>(si);
+  if (name == "AITstar") return std::make_shared<og::AITstar>(si);
+  if (name == "PRMstar") return std::make_shared<og::PRMstar>(si);
+  if (name == "LazyPRMstar") return std::make_shared<og::LazyPRMstar>(si);
+  if (name == "KPIECE1") return std::make_shared<og::KPIECE1>(si);
+  return nullptr;
+}
+
 double seconds(std::chrono::steady_clock::time_point a) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count();
 }
@@ -43,6 +68,15 @@ double seconds(std::chrono::steady_clock::time_point a) {
 }  // namespace
 
 // Debian's OMPL 1.5.2 defines OMPL_VERSION as "", so build it from the numeric parts.
+std::vector<std::string> plannerNames() {
+  return {"RRTConnect", "RRTstar", "InformedRRTstar", "BITstar", "ABITstar", "AITstar", "PRMstar", "LazyPRMstar", "KPIECE1"};
+}
+
+void seedOmplGlobally(uint32_t seed) {
+  static std::once_flag once;
+  std::call_once(once, [seed] { ompl::RNG::setSeed(seed); });
+}
+
 std::string omplVersion() {
   return std::to_string(OMPL_MAJOR_VERSION) + "." + std::to_string(OMPL_MINOR_VERSION) + "." + std::to_string(OMPL_PATCH_VERSION);
 }
@@ -69,10 +103,6 @@ PlanResult planJointPath(const RobotModel& robot, CollisionChecker& checker, con
     r.reason = "goal state invalid (" + checker.lastCollision() + ")";
     return r;
   }
-  if (o.planner != "RRTConnect") {
-    r.reason = "unknown planner '" + o.planner + "'";
-    return r;
-  }
   const int n = robot.dof();
   auto space = std::make_shared<ob::RealVectorStateSpace>(n);
   ob::RealVectorBounds bounds(n);
@@ -96,7 +126,15 @@ PlanResult planJointPath(const RobotModel& robot, CollisionChecker& checker, con
   ob::ScopedState<> s(space), g(space);
   for (int i = 0; i < n; ++i) s[i] = start[i], g[i] = goal[i];
   pdef->setStartAndGoalStates(s, g);
-  auto planner = std::make_shared<SeededRRTConnect>(si, rng.seed32());
+  // Optimizing planners stop at their first solution: every planner is timed to a feasible path.
+  auto objective = std::make_shared<ob::PathLengthOptimizationObjective>(si);
+  objective->setCostThreshold(ob::Cost(std::numeric_limits<double>::infinity()));
+  pdef->setOptimizationObjective(objective);
+  auto planner = makePlanner(o.planner, si, rng.seed32());
+  if (!planner) {
+    r.reason = "unknown planner '" + o.planner + "'";
+    return r;
+  }
   planner->setProblemDefinition(pdef);
   planner->setup();
   const auto t0 = std::chrono::steady_clock::now();
@@ -109,6 +147,8 @@ PlanResult planJointPath(const RobotModel& robot, CollisionChecker& checker, con
     return r;
   }
   auto& path = static_cast<og::PathGeometric&>(*pdef->getSolutionPath());
+  r.raw_length = path.length();
+  r.raw_waypoints = static_cast<int>(path.getStateCount());
   if (o.simplify) {
     const auto t1 = std::chrono::steady_clock::now();
     SeededSimplifier simp(si, rng.seed32());

@@ -9,8 +9,14 @@
 
 namespace mm {
 
+/// The OMPL planners available by name.
+std::vector<std::string> plannerNames();
+/// Seeds OMPL's global generator (once per process, before any planning): the planners other
+/// than RRTConnect draw on it, deterministic in a single thread (plan-bench).
+void seedOmplGlobally(uint32_t seed);
+
 struct PlannerOptions {
-  std::string planner = "RRTConnect";
+  std::string planner = "RRTConnect";  ///< one of plannerNames()
   double time_limit = 5.0;        ///< [s] wall-clock safety cap; reaching it is recorded
   double resolution = 0.02;       ///< [rad] edge validation step (joint-space distance)
   bool simplify = true;           ///< shortcut and vertex reduction after planning
@@ -25,7 +31,9 @@ struct PlanResult {
   double simplify_seconds = 0;  ///< wall time of the simplifier
   long collision_checks = 0;
   bool hit_time_limit = false;
-  double length = 0;        ///< joint-space path length [rad]
+  double length = 0;        ///< joint-space path length [rad] (after simplification)
+  double raw_length = 0;    ///< before simplification
+  int raw_waypoints = 0;
 };
 
 /// Plans from `start` to `goal` (both dim dof). A start or goal in collision fails at once with

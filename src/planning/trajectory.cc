@@ -102,6 +102,101 @@ JointTrajectory trapezoidalTrajectory(const std::vector<VecX>& wp, const VecX& v
   return out;
 }
 
+namespace {
+
+// Rest-to-rest double-S profile over unit distance with limits V, A, J (all > 0).
+struct DoubleS {
+  double Tj = 0, Ta = 0, Tv = 0, J = 0;  // jerk time, acceleration time, cruise time, jerk
+  double T() const { return 2 * Ta + Tv; }
+  static DoubleS fastest(double V, double A, double J) {
+    DoubleS p;
+    p.J = J;
+    // Acceleration phase reaching V (B&M eq. 3.19): with or without a constant-acceleration part.
+    if (V * J >= A * A) p.Tj = A / J, p.Ta = p.Tj + V / A;
+    else p.Tj = std::sqrt(V / J), p.Ta = 2 * p.Tj;
+    p.Tv = 1.0 / V - p.Ta;
+    if (p.Tv < 0) {  // V is not reached (B&M eq. 3.25-3.26, symmetric case)
+      p.Tv = 0;
+      if (1.0 >= 2 * A * A * A / (J * J)) {
+        p.Tj = A / J;
+        p.Ta = 0.5 * p.Tj + std::sqrt(0.25 * p.Tj * p.Tj + 1.0 / A);
+      } else {
+        p.Tj = std::cbrt(1.0 / (2 * J));
+        p.Ta = 2 * p.Tj;
+      }
+    }
+    return p;
+  }
+  // Position, velocity, acceleration at time t by integrating the piecewise-constant jerk exactly.
+  void eval(double t, double& s, double& v, double& a) const {
+    const double Tc = Ta - 2 * Tj;  // constant-acceleration time
+    const double segs[7] = {Tj, Tc, Tj, Tv, Tj, Tc, Tj};
+    const double jerks[7] = {J, 0, -J, 0, -J, 0, J};
+    s = v = a = 0;
+    for (int k = 0; k < 7 && t > 0; ++k) {
+      const double h = std::min(t, segs[k]);
+      const double j = jerks[k];
+      s += v * h + a * h * h / 2 + j * h * h * h / 6;
+      v += a * h + j * h * h / 2;
+      a += j * h;
+      t -= h;
+    }
+  }
+};
+
+}  // namespace
+
+JointTrajectory jerkLimitedTrajectory(const std::vector<VecX>& wp, const VecX& vmax, const VecX& amax, const VecX& jmax,
+                                      const LimitScaling& scale, double dt) {
+  MM_DEMAND(!wp.empty() && dt > 0);
+  const int n = static_cast<int>(wp[0].size());
+  std::vector<std::pair<DoubleS, int>> segs;
+  int total = 1;
+  for (size_t i = 0; i + 1 < wp.size(); ++i) {
+    const VecX D = (wp[i + 1] - wp[i]).cwiseAbs();
+    double V = INFINITY, A = INFINITY, J = INFINITY;
+    for (int k = 0; k < n; ++k)
+      if (D[k] > 1e-12) {
+        V = std::min(V, vmax[k] * scale.velocity / D[k]);
+        A = std::min(A, amax[k] * scale.acceleration / D[k]);
+        J = std::min(J, jmax[k] * scale.acceleration / D[k]);
+      }
+    if (!std::isfinite(V)) {
+      segs.push_back({DoubleS{}, 0});
+      continue;
+    }
+    DoubleS p = DoubleS::fastest(V, A, J);
+    const int steps = static_cast<int>(std::ceil(p.T() / dt - 1e-9));
+    // Whole periods: stretch time by k >= 1 (velocity / k, acceleration / k^2, jerk / k^3).
+    const double k = steps * dt / p.T();
+    p.Tj *= k, p.Ta *= k, p.Tv *= k, p.J /= k * k * k;
+    segs.push_back({p, steps});
+    total += steps;
+  }
+  JointTrajectory out;
+  out.dt = dt;
+  out.q.resize(n, total);
+  out.qd.resize(n, total);
+  out.qdd.resize(n, total);
+  out.q.col(0) = wp[0];
+  out.qd.col(0).setZero();
+  out.qdd.col(0).setZero();
+  int col = 1;
+  for (size_t i = 0; i < segs.size(); ++i) {
+    const auto& [p, steps] = segs[i];
+    const VecX D = wp[i + 1] - wp[i];
+    for (int st = 1; st <= steps; ++st, ++col) {
+      double sv, sd, sdd;
+      p.eval(st * dt, sv, sd, sdd);
+      if (st == steps) sv = 1, sd = 0, sdd = 0;
+      out.q.col(col) = wp[i] + sv * D;
+      out.qd.col(col) = sd * D;
+      out.qdd.col(col) = sdd * D;
+    }
+  }
+  return out;
+}
+
 void differentiate(JointTrajectory& t) {
   const int N = t.size();
   t.qd.setZero(t.q.rows(), N);
@@ -126,8 +221,17 @@ LimitReport checkLimits(const JointTrajectory& t, const RobotModel& robot, doubl
       const double ar = std::abs(t.qdd(j, k)) / robot.amax()[j];
       if (vr > r.max_velocity_ratio) r.max_velocity_ratio = vr;
       if (ar > r.max_acceleration_ratio) r.max_acceleration_ratio = ar;
+      r.rms_acceleration += t.qdd(j, k) * t.qdd(j, k);
+      if (k > 0) {
+        const double jerk = (t.qdd(j, k) - t.qdd(j, k - 1)) / t.dt;
+        r.max_jerk_ratio = std::max(r.max_jerk_ratio, std::abs(jerk) / robot.jmax()[j]);
+        r.rms_jerk += jerk * jerk;
+      }
     }
   }
+  const double samples = static_cast<double>(std::max(1, t.size())) * robot.dof();
+  r.rms_acceleration = std::sqrt(r.rms_acceleration / samples);
+  r.rms_jerk = std::sqrt(r.rms_jerk / samples);
   r.ok = r.positions_ok && r.max_velocity_ratio <= 1 + tol && r.max_acceleration_ratio <= 1 + tol;
   if (r.worst.empty() && !r.ok) {
     std::ostringstream s;

@@ -21,6 +21,13 @@ struct LimitScaling {
 JointTrajectory trapezoidalTrajectory(const std::vector<VecX>& waypoints, const VecX& vmax, const VecX& amax,
                                       const LimitScaling& scale, double dt);
 
+/// Jerk-limited time parameterization: per segment, all joints follow one normalized double-S
+/// (7-phase, jerk-limited) profile, the shortest one within the scaled velocity, acceleration and
+/// jerk limits of every joint (Biagiotti & Melchiorri, "Trajectory Planning for Automatic Machines
+/// and Robots", 2008, sec. 3.4); rest at each waypoint. `jmax` [rad/s^3] is scaled like `amax`.
+JointTrajectory jerkLimitedTrajectory(const std::vector<VecX>& waypoints, const VecX& vmax, const VecX& amax,
+                                      const VecX& jmax, const LimitScaling& scale, double dt);
+
 /// Fills qd and qdd of a trajectory whose q is known, by central differences.
 void differentiate(JointTrajectory& traj);
 
@@ -28,6 +35,9 @@ struct LimitReport {
   bool ok = true;
   double max_velocity_ratio = 0;      ///< max |qd| / vmax over samples and joints
   double max_acceleration_ratio = 0;  ///< max |qdd| / amax
+  double max_jerk_ratio = 0;          ///< max |d qdd / dt| / jmax (finite differences of qdd)
+  double rms_acceleration = 0;        ///< [rad/s^2] over samples and joints
+  double rms_jerk = 0;                ///< [rad/s^3]
   bool positions_ok = true;
   std::string worst;                  ///< which joint, sample and quantity was worst
 };

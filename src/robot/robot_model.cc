@@ -163,10 +163,23 @@ void RobotModel::frames(const VecX& q, std::vector<Pose>& T) const {
   MM_DEMAND(q.size() == dof());
   T.resize(dof() + 1);
   T[0] = Pose::Identity();
+  // Rotation and translation separately (cheaper than 4x4 products), z axes by columns.
+  Mat3 R = Mat3::Identity();
+  Vec3 p = Vec3::Zero();
   for (int k = 0; k < dof(); ++k) {
-    Pose R = Pose::Identity();
-    R.linear() = Eigen::AngleAxisd(q[k], axis_[k]).toRotationMatrix();
-    T[k + 1] = T[k] * T_pre_[k] * R;
+    p += R * T_pre_[k].translation();
+    R = R * T_pre_[k].linear();
+    const double c = std::cos(q[k]), s = std::sin(q[k]);
+    if (axis_[k].isApprox(Vec3::UnitZ(), 1e-15)) {
+      const Vec3 x = R.col(0), y = R.col(1);
+      R.col(0) = c * x + s * y;
+      R.col(1) = c * y - s * x;
+    } else {
+      R = R * Eigen::AngleAxisd(q[k], axis_[k]).toRotationMatrix();
+    }
+    T[k + 1].linear() = R;
+    T[k + 1].translation() = p;
+    T[k + 1].makeAffine();
   }
 }
 
@@ -187,8 +200,13 @@ void RobotModel::linkPoses(const VecX& q, double finger_opening, std::vector<Pos
   out.resize(links_.size());
   for (size_t i = 0; i < links_.size(); ++i) {
     const LinkInfo& l = links_[i];
-    out[i] = F[l.frame] * l.T_frame_joint;
-    if (!l.finger_axis.isZero()) out[i].translate(l.finger_axis * finger_opening);
+    const Mat3& R = F[l.frame].linear();
+    Vec3 p = F[l.frame].translation() + R * l.T_frame_joint.translation();
+    const Mat3 Rl = R * l.T_frame_joint.linear();
+    if (!l.finger_axis.isZero()) p += Rl * (l.finger_axis * finger_opening);
+    out[i].linear() = Rl;
+    out[i].translation() = p;
+    out[i].makeAffine();
   }
 }
 

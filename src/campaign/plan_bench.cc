@@ -1,0 +1,352 @@
+#include "campaign/plan_bench.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <thread>
+
+#include "campaign/stats.h"
+#include "core/error.h"
+#include "grasp/grasp.h"
+#include "kinematics/ik.h"
+#include "planning/collision.h"
+#include "planning/planner.h"
+#include "planning/trajectory.h"
+#include "sim/scene_sampler.h"
+#include "sim/sim_world.h"
+
+namespace mm {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+struct Problem {
+  std::string kind;  // home->pregrasp, lift->preplace, retreat->home
+  int scene = 0;
+  VecX start, goal;
+  PlanningScene world;
+};
+
+Obstacle boxOf(const ObjectState& o) {
+  Obstacle b;
+  b.size = o.half_size;
+  b.T_world = o.T_world_object;
+  b.name = o.name;
+  return b;
+}
+
+// Problems as the pick pipeline poses them, from seeded bin layouts (mock spawning: no physics).
+std::vector<Problem> makeProblems(const RobotModel& robot, SimWorld& world, int scenes, uint64_t seed, double padding) {
+  const auto [T_bin, half] = world.site("bin_region");
+  const auto [T_place, place_half] = world.site("place_target");
+  const std::vector<Obstacle> statics = world.staticObstacles();
+  auto ik = makeIkSolver("analytic", robot);
+  std::vector<Problem> out;
+  Rng rng(mixSeed(seed, 2024, 0));
+  SpawnOptions so;
+  so.physics = false;
+  const double preferred = yawOf(robot.fk(robot.home()).linear());
+  auto solve = [&](const Pose& T, const VecX& seed_q, VecX& q) {
+    IkRequest req;
+    req.target = T;
+    req.seed = seed_q;
+    req.nearest = true;
+    req.limit_margin = 0.05;
+    const IkResult r = ik->solve(req, rng);
+    if (r.ok()) q = r.q();
+    return r.ok();
+  };
+  for (int s = 0; s < scenes; ++s) {
+    const SpawnResult spawn = spawnObjects(world, robot, T_bin, half, rng, so);
+    if (!spawn.ok) continue;
+    std::vector<ObjectState> objs;
+    for (int i : spawn.active) objs.push_back(world.object(i));
+    const ObjectState target = objs.front();
+    PlanningScene full;
+    full.obstacles = statics;
+    for (const auto& o : objs) full.obstacles.push_back(boxOf(o));
+    full.finger_opening = 0.037;
+    auto valid = makeFclChecker(robot, full, padding);
+    std::vector<Obstacle> neighbours = statics;
+    VecX q_pre, q_grasp, q_lift, q_preplace, q_retreat;
+    bool found = false;
+    for (const GraspCandidate& g : topDownGrasps(target, preferred, neighbours, GraspOptions{})) {
+      Pose pre = g.T_world_tcp;
+      pre.translation().z() += 0.10;
+      if (!solve(pre, robot.home(), q_pre) || !valid->isValid(q_pre)) continue;
+      if (!solve(g.T_world_tcp, q_pre, q_grasp)) continue;
+      Pose lift = g.T_world_tcp;
+      lift.translation().z() += 0.15;
+      if (!solve(lift, q_grasp, q_lift)) continue;
+      found = true;
+      // Place: the object on the tray target, then 10 cm up for the retreat.
+      const Pose T_tcp_obj = g.T_world_tcp.inverse() * target.T_world_object;
+      Pose T_obj = T_place;
+      T_obj.translation().z() += target.half_size.z() + 0.005;
+      Pose T_tcp_place = T_obj * T_tcp_obj.inverse();
+      Pose preplace = T_tcp_place;
+      preplace.translation().z() += 0.10;
+      if (!solve(preplace, q_lift, q_preplace) || !solve(preplace, q_preplace, q_retreat)) found = false;
+      if (!found) continue;
+      Problem a{"home->pregrasp", s, robot.home(), q_pre, full};
+      Problem b{"lift->preplace", s, q_lift, q_preplace, full};
+      b.world.obstacles.clear();
+      b.world.obstacles = statics;
+      for (const auto& o : objs)
+        if (o.index != target.index) b.world.obstacles.push_back(boxOf(o));
+      b.world.has_attached = true;
+      b.world.attached_half = target.half_size;
+      b.world.T_tcp_attached = T_tcp_obj;
+      b.world.finger_opening = target.half_size.y();
+      Problem c{"retreat->home", s, q_retreat, robot.home(), b.world};
+      c.world.has_attached = false;
+      ObjectState placed = target;
+      placed.T_world_object = T_obj;
+      c.world.obstacles.push_back(boxOf(placed));
+      c.world.finger_opening = 0.04;
+      for (Problem* p : {&a, &b, &c}) {
+        auto chk = makeFclChecker(robot, p->world, padding);
+        if (chk->isValid(p->start) && chk->isValid(p->goal)) out.push_back(*p);
+      }
+      break;
+    }
+  }
+  return out;
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(std::ceil(p * v.size())) - 1)];
+}
+
+std::string cpuModel() {
+  std::ifstream in("/proc/cpuinfo");
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
+  return "unknown";
+}
+
+struct Run {
+  bool solved = false;
+  double time = 0, simplify = 0, raw_length = 0, length = 0, clearance = NAN;
+  int raw_segments = 0, segments = 0;
+  long checks = 0;
+  std::string reason;
+  std::map<std::string, double> duration;  // per time parameterization
+};
+
+struct TpStats {
+  std::vector<double> duration, max_acc, rms_acc, max_jerk, rms_jerk;
+  long within = 0, n = 0;
+};
+
+const char* kTps[] = {"trapezoidal", "jerk_limited"};
+
+}  // namespace
+
+std::string runPlanBench(const PlanBenchOptions& o) {
+  seedOmplGlobally(static_cast<uint32_t>(mixSeed(o.seed, 99, 0)));
+  const RobotModel robot = RobotModel::load(o.robot);
+  auto world = SimWorld::load(o.scene, robot);
+  std::vector<std::string> planners = o.planners.empty() ? plannerNames() : o.planners;
+  for (const auto& p : planners)
+    if (std::find(plannerNames().begin(), plannerNames().end(), p) == plannerNames().end())
+      throw InputError("--planners " + p, "unknown planner");
+  for (const auto& c : o.checkers) makeChecker(c, robot, PlanningScene{}, 0.0);  // InputError for a bad name
+  const auto t_all = Clock::now();
+  const std::vector<Problem> problems = makeProblems(robot, *world, o.scenes, o.seed, o.padding);
+  if (problems.empty()) throw InputError(o.scene, "no valid planning problem could be drawn from this scene");
+
+  struct Combo {
+    std::string planner, checker;
+    std::vector<Run> runs;
+    TpStats tp[2];
+  };
+  std::vector<Combo> combos;
+  for (const auto& checker : o.checkers)
+    for (const auto& planner : planners) combos.push_back(Combo{planner, checker, {}, {}});
+  const LimitScaling scale{0.5, 0.5};
+  // Problem by problem, every combination back to back: load changes on a shared machine then
+  // affect all contenders alike.
+  for (size_t i = 0; i < problems.size(); ++i) {
+    const Problem& p = problems[i];
+    for (Combo& c : combos) {
+      auto chk = makeChecker(c.checker, robot, p.world, o.padding);
+      PlannerOptions po;
+      po.planner = c.planner;
+      po.time_limit = o.time_limit;
+      po.simplify = o.simplify;
+      const PlanResult r = planJointPath(robot, *chk, p.start, p.goal, mixSeed(o.seed, i, 7), po);
+      Run run;
+      run.solved = r.ok;
+      run.time = r.plan_seconds;
+      run.simplify = r.simplify_seconds;
+      run.checks = r.collision_checks;
+      run.reason = r.reason;
+      if (r.ok) {
+        run.raw_length = r.raw_length;
+        run.raw_segments = r.raw_waypoints - 1;
+        run.length = r.length;
+        run.segments = static_cast<int>(r.path.size()) - 1;
+        // Clearance along the path (FCL distance at 0.05 rad steps), the same reference for all.
+        double cl = INFINITY;
+        for (size_t k = 1; k < r.path.size(); ++k) {
+          const int m = std::max(1, static_cast<int>(std::ceil((r.path[k] - r.path[k - 1]).norm() / 0.05)));
+          for (int t = 0; t <= m; ++t)
+            cl = std::min(cl, clearance(robot, p.world, r.path[k - 1] + (r.path[k] - r.path[k - 1]) * (double(t) / m)));
+        }
+        run.clearance = cl;
+        for (int tp = 0; tp < 2; ++tp) {
+          const JointTrajectory traj = tp == 0 ? trapezoidalTrajectory(r.path, robot.vmax(), robot.amax(), scale, 0.002)
+                                               : jerkLimitedTrajectory(r.path, robot.vmax(), robot.amax(), robot.jmax(), scale, 0.002);
+          const LimitReport lim = checkLimits(traj, robot, 1e-6);
+          TpStats& s = c.tp[tp];
+          ++s.n;
+          s.within += lim.ok && (tp == 0 || lim.max_jerk_ratio <= 1 + 1e-6);
+          s.duration.push_back(traj.duration());
+          s.max_acc.push_back(lim.max_acceleration_ratio);
+          s.rms_acc.push_back(lim.rms_acceleration);
+          s.max_jerk.push_back(lim.max_jerk_ratio);
+          s.rms_jerk.push_back(lim.rms_jerk);
+          run.duration[kTps[tp]] = traj.duration();
+        }
+      }
+      c.runs.push_back(run);
+    }
+  }
+  const double total = std::chrono::duration<double>(Clock::now() - t_all).count();
+
+  // ---- Markdown and JSON ----
+  std::ostringstream md;
+  md << std::fixed;
+  md << "Planning benchmark: `" << o.command_line << "`\n\n";
+  md << problems.size() << " problems from " << o.scenes << " seeded bin scenes (seed " << o.seed
+     << "): home -> pre-grasp among the bin's objects, lift -> pre-place holding the object, retreat -> home. Padding "
+     << o.padding * 1000 << " mm, time limit " << std::setprecision(1) << o.time_limit << " s per call, simplification "
+     << (o.simplify ? "on" : "off") << ", optimizing planners stop at their first solution. " << cpuModel() << ", "
+     << std::thread::hardware_concurrency() << " cores, one thread. Times are wall times.\n\n";
+  md << "| planner | checker | success | 95% CI | plan ms mean | median | p95 | simplify ms | path length rad | min clearance mm | checks/s |\n";
+  md << "|---|---|---|---|---|---|---|---|---|---|---|\n";
+  json jc = json::array();
+  for (const Combo& c : combos) {
+    long ok = 0;
+    std::vector<double> t, simp, len, clr;
+    long checks = 0;
+    double plan_time = 0;
+    for (const Run& r : c.runs) {
+      t.push_back(1000 * r.time);
+      plan_time += r.time;
+      checks += r.checks;
+      if (!r.solved) continue;
+      ++ok;
+      simp.push_back(1000 * r.simplify);
+      len.push_back(r.length);
+      clr.push_back(1000 * r.clearance);
+    }
+    const auto [lo, hi] = wilson95(ok, static_cast<long>(c.runs.size()));
+    const Moments mt = moments(t), ms = moments(simp), ml = moments(len), mc = moments(clr);
+    const double cps = plan_time > 0 ? checks / plan_time : 0;
+    md << "| " << c.planner << " | " << c.checker << " | " << std::setprecision(1) << 100.0 * ok / c.runs.size() << "% | "
+       << 100 * lo << "–" << 100 * hi << "% | " << std::setprecision(3) << mt.mean << " | " << percentile(t, 0.5) << " | "
+       << percentile(t, 0.95) << " | " << ms.mean << " | " << std::setprecision(2) << ml.mean << " | " << std::setprecision(1)
+       << mc.min << " | " << std::setprecision(0) << cps << " |\n";
+    json runs = json::array();
+    for (size_t i = 0; i < c.runs.size(); ++i) {
+      const Run& r = c.runs[i];
+      runs.push_back({{"problem", i}, {"kind", problems[i].kind}, {"solved", r.solved}, {"time_s", r.time},
+                      {"simplify_s", r.simplify}, {"length", r.length}, {"raw_length", r.raw_length},
+                      {"clearance_m", r.solved ? json(r.clearance) : json(nullptr)}, {"collision_checks", r.checks},
+                      {"durations_s", r.duration}, {"reason", r.reason}});
+    }
+    json tps;
+    for (int tp = 0; tp < 2; ++tp) {
+      const TpStats& s = c.tp[tp];
+      tps[kTps[tp]] = {{"duration_mean_s", moments(s.duration).mean}, {"max_acceleration_ratio", moments(s.max_acc).max},
+                       {"rms_acceleration", moments(s.rms_acc).mean}, {"max_jerk_ratio", moments(s.max_jerk).max},
+                       {"rms_jerk", moments(s.rms_jerk).mean}, {"within_limits", s.within}, {"n", s.n}};
+    }
+    jc.push_back({{"planner", c.planner}, {"checker", c.checker}, {"success", double(ok) / c.runs.size()}, {"ci95", {lo, hi}},
+                  {"plan_ms", {{"mean", mt.mean}, {"median", percentile(t, 0.5)}, {"p95", percentile(t, 0.95)}}},
+                  {"simplify_ms_mean", ms.mean}, {"path_length_mean", ml.mean}, {"min_clearance_mm", mc.min},
+                  {"checks_per_second", cps}, {"time_parameterizations", tps}, {"runs", runs}});
+  }
+  md << "\nTime parameterizations of the same paths (velocity and acceleration scaled to 50% of the limits; "
+        "jerk ratios against the Panda's jerk limits; the trapezoid's acceleration steps make its jerk unbounded):\n\n";
+  md << "| planner | checker | method | duration s mean | max acc / limit | RMS acc rad/s² | max jerk / limit | RMS jerk rad/s³ | within limits |\n";
+  md << "|---|---|---|---|---|---|---|---|---|\n";
+  for (const Combo& c : combos)
+    for (int tp = 0; tp < 2; ++tp) {
+      const TpStats& s = c.tp[tp];
+      md << "| " << c.planner << " | " << c.checker << " | " << kTps[tp] << " | " << std::setprecision(3) << moments(s.duration).mean
+         << " | " << moments(s.max_acc).max << " | " << std::setprecision(2) << moments(s.rms_acc).mean << " | "
+         << std::setprecision(1) << moments(s.max_jerk).max << " | " << moments(s.rms_jerk).mean << " | " << s.within << "/" << s.n
+         << " |\n";
+    }
+  fs::create_directories(o.out_dir);
+  json j;
+  j["command"] = o.command_line;
+  j["seed"] = o.seed;
+  j["problems"] = problems.size();
+  j["settings"] = {{"padding_m", o.padding}, {"time_limit_s", o.time_limit}, {"simplify", o.simplify}, {"scaling", 0.5}};
+  j["machine"] = {{"cpu", cpuModel()}, {"cores", std::thread::hardware_concurrency()}};
+  j["combinations"] = jc;
+  std::ofstream(fs::path(o.out_dir) / "plan_bench.json") << j.dump(2) << "\n";
+  std::ofstream(fs::path(o.out_dir) / "plan_bench.md") << md.str();
+
+  // ---- OMPL benchmark log (grammar: OMPL's doc "The benchmark logfile format") ----
+  std::ofstream log(fs::path(o.out_dir) / "plan_bench.log");
+  char host[256] = "";
+  gethostname(host, sizeof host - 1);
+  const std::time_t now = std::time(nullptr);
+  char date[64];
+  std::strftime(date, sizeof date, "%Y-%m-%d %H:%M:%S", std::gmtime(&now));
+  log << "OMPL version " << omplVersion() << "\n";
+  log << "Experiment minimanip_bin_scene\n";
+  log << "2 experiment properties\n";
+  log << "problems INTEGER=" << problems.size() << "\n";
+  log << "padding REAL=" << o.padding << "\n";
+  log << "Running on " << host << "\n";
+  log << "Starting at " << date << "\n";
+  log << "<<<|\n" << o.command_line << "\n|>>>\n";
+  log << "<<<|\n" << cpuModel() << "\n|>>>\n";
+  log << static_cast<uint32_t>(mixSeed(o.seed, 99, 0)) << " is the random seed\n";
+  log << o.time_limit << " seconds per run\n";
+  log << "4096 MB per run\n";
+  log << problems.size() << " runs per planner\n";
+  log << total << " seconds spent to collect the data\n";
+  log << "0 enum type\n";
+  log << combos.size() << " planners\n";
+  for (const Combo& c : combos) {
+    log << "geometric_" << c.planner << "_" << c.checker << "\n";
+    log << "2 common properties\n";
+    log << "collision checker = " << c.checker << "\n";
+    log << "simplify = " << (o.simplify ? 1 : 0) << "\n";
+    log << "11 properties for each run\n";
+    log << "time REAL\nsolved BOOLEAN\nsimplification time REAL\nsolution length REAL\nsimplified solution length REAL\n"
+           "solution segments INTEGER\nsimplified solution segments INTEGER\ncollision checks INTEGER\n"
+           "simplified solution clearance REAL\ntrajectory duration trapezoidal REAL\ntrajectory duration jerk_limited REAL\n";
+    log << c.runs.size() << " runs\n";
+    for (const Run& r : c.runs) {
+      auto num = [&](double v) { return r.solved ? std::to_string(v) : std::string(""); };
+      log << r.time << "; " << (r.solved ? 1 : 0) << "; " << num(r.simplify) << "; " << num(r.raw_length) << "; "
+          << num(r.length) << "; " << (r.solved ? std::to_string(r.raw_segments) : "") << "; "
+          << (r.solved ? std::to_string(r.segments) : "") << "; " << r.checks << "; " << num(r.clearance) << "; "
+          << (r.solved ? std::to_string(r.duration.at("trapezoidal")) : "") << "; "
+          << (r.solved ? std::to_string(r.duration.at("jerk_limited")) : "") << "; \n";
+    }
+    log << ".\n";
+  }
+  return md.str();
+}
+
+}  // namespace mm

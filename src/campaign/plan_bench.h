@@ -1,0 +1,29 @@
+// `minimanip plan-bench`: planners x collision checkers x time parameterizations on the same
+// planning problems from the bin scene, in one run. Problems: home -> pre-grasp (the bin's objects
+// as obstacles), lift -> pre-place (the object held), retreat -> home; from seeded scenes.
+// Outputs: plan_bench.json, plan_bench.md and plan_bench.log (OMPL's benchmark log format, which
+// ompl_benchmark_statistics.py turns into the database Planner Arena reads).
+#pragma once
+#include <string>
+#include <vector>
+
+namespace mm {
+
+struct PlanBenchOptions {
+  std::string robot = "robots/panda/panda.yaml";
+  std::string scene = "scenes/bin_table.xml";
+  int scenes = 20;                        ///< seeded bin layouts; 3 problems each
+  uint64_t seed = 1;
+  double time_limit = 5.0;                ///< [s] per planning call
+  double padding = 0.01;                  ///< [m]
+  std::vector<std::string> planners;      ///< empty: all
+  std::vector<std::string> checkers = {"spheres", "spheres+fcl", "fcl"};
+  bool simplify = true;
+  std::string out_dir = "results/plan-bench";
+  std::string command_line;
+};
+
+/// Runs the benchmark and returns the Markdown report (also written to the output folder).
+std::string runPlanBench(const PlanBenchOptions& options);
+
+}  // namespace mm
