@@ -186,3 +186,59 @@ TEST(SphereChecker, HomeIsFreeAndTheTableCollides) {
 
 }  // namespace
 }  // namespace mm
+
+namespace mm {
+namespace {
+
+// A wall in front of the robot between two arm postures (see Planner.FindsAPathAroundAWall...):
+// every planner by name finds a path whose every edge is collision-free at 1 cm resolution.
+class EveryPlanner : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(EveryPlanner, FindsACollisionFreePath) {
+  seedOmplGlobally(5);
+  const RobotModel& r = panda();
+  PlanningScene s = tableScene();
+  s.obstacles.push_back(box("wall", Vec3(0.55, 0.0, 0.25), Vec3(0.05, 0.05, 0.25)));
+  auto c = makeChecker("spheres+fcl", r, s, 0.01);
+  VecX a = r.home(), b = r.home();
+  a[0] = -1.0, b[0] = 1.0;
+  a[1] = b[1] = 0.3;
+  PlannerOptions o;
+  o.planner = GetParam();
+  o.time_limit = 20.0;
+  const PlanResult p = planJointPath(r, *c, a, b, 77, o);
+  ASSERT_TRUE(p.ok) << GetParam() << ": " << p.reason;
+  auto exact = makeFclChecker(r, s, 0.01);
+  for (size_t k = 1; k < p.path.size(); ++k) EXPECT_TRUE(segmentValid(*exact, p.path[k - 1], p.path[k], 0.01));
+  EXPECT_EQ(p.path.front(), a);
+  EXPECT_EQ(p.path.back(), b);
+}
+
+INSTANTIATE_TEST_SUITE_P(Planners, EveryPlanner, ::testing::ValuesIn(plannerNames()));
+
+// An impossible problem by construction: the checker forbids the slab |q1| < 0.1 rad of joint
+// space, and start and goal lie on opposite sides of it (joint 1 cannot go around: its range is
+// an interval). The planner must give up when its budget ends, with a reason, and not hang.
+TEST(Planner, ImpossibleProblemFailsCleanlyWithinItsBudget) {
+  struct Slab : CollisionChecker {
+    bool isValid(const VecX& q) override {
+      ++checks_;
+      return std::abs(q[0]) >= 0.1;
+    }
+    std::string lastCollision() const override { return "slab"; }
+  } slab;
+  const RobotModel& r = panda();
+  VecX a = r.home(), b = r.home();
+  a[0] = -1.0, b[0] = 1.0;
+  PlannerOptions o;
+  o.time_limit = 0.3;
+  const PlanResult p = planJointPath(r, slab, a, b, 3, o);
+  EXPECT_FALSE(p.ok);
+  EXPECT_NE(p.reason.find("planner RRTConnect"), std::string::npos) << p.reason;
+  EXPECT_TRUE(p.hit_time_limit);
+  EXPECT_GT(p.collision_checks, 100);
+  EXPECT_LT(p.plan_seconds, 5.0);  // a safety net around the 0.3 s budget, not a speed test
+}
+
+}  // namespace
+}  // namespace mm

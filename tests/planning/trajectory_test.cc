@@ -102,3 +102,47 @@ TEST(CartesianTrajectory, StraightLineWithinLimits) {
 
 }  // namespace
 }  // namespace mm
+
+namespace mm {
+namespace {
+
+// 200 random paths (seed 22): the jerk-limited parameterization stays within the scaled velocity,
+// acceleration and jerk limits at every sample and passes through each waypoint at rest.
+TEST(JerkLimitedTrajectory, RespectsVelocityAccelerationAndJerkLimits) {
+  const RobotModel& r = panda();
+  Rng rng(22);
+  for (int trial = 0; trial < 200; ++trial) {
+    std::vector<VecX> wp;
+    const int n = 2 + static_cast<int>(rng.below(3));
+    for (int i = 0; i < n; ++i) {
+      VecX q(r.dof());
+      for (int j = 0; j < r.dof(); ++j) q[j] = rng.uniform(r.lower()[j], r.upper()[j]);
+      wp.push_back(q);
+    }
+    const LimitScaling s{rng.uniform(0.1, 1.0), rng.uniform(0.1, 1.0)};
+    const JointTrajectory t = jerkLimitedTrajectory(wp, r.vmax(), r.amax(), r.jmax(), s, 0.002);
+    const LimitReport rep = checkLimits(t, r, 1e-9);
+    EXPECT_TRUE(rep.positions_ok);
+    EXPECT_LE(rep.max_velocity_ratio, s.velocity * (1 + 1e-6)) << trial;
+    EXPECT_LE(rep.max_acceleration_ratio, s.acceleration * (1 + 1e-6)) << trial;
+    EXPECT_LE(rep.max_jerk_ratio, s.acceleration * (1 + 1e-6)) << trial;
+    EXPECT_LT((t.q.col(t.size() - 1) - wp.back()).norm(), 1e-12);
+    // Continuous acceleration: no step larger than the jerk limit allows in one period.
+    for (int k = 1; k < t.size(); ++k)
+      ASSERT_LE(((t.qdd.col(k) - t.qdd.col(k - 1)).cwiseAbs().array() / (r.jmax().array() * t.dt)).maxCoeff(), s.acceleration * (1 + 1e-6));
+  }
+}
+
+TEST(JerkLimitedTrajectory, NoFasterThanTheTrapezoid) {
+  const RobotModel& r = panda();
+  VecX a = r.home(), b = r.home();
+  b[0] += 1.0, b[3] += 0.5;
+  const LimitScaling s{0.5, 0.5};
+  const double tr = trapezoidalTrajectory({a, b}, r.vmax(), r.amax(), s, 0.002).duration();
+  const double jl = jerkLimitedTrajectory({a, b}, r.vmax(), r.amax(), r.jmax(), s, 0.002).duration();
+  EXPECT_GE(jl, tr - 1e-9);
+  EXPECT_LT(jl, tr + 0.05);  // the Panda's jerk limits are 500x its acceleration limits: phases of ~2 ms
+}
+
+}  // namespace
+}  // namespace mm
