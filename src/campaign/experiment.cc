@@ -40,7 +40,9 @@ std::vector<ParamDecl> experimentParams() {
       {"motion.cartesian_speed", K::kDouble, "0.2", 0.01, 1.0, {}, "m/s", "TCP speed limit on straight-line moves"},
       {"motion.cartesian_acceleration", K::kDouble, "1.0", 0.05, 5.0, {}, "m/s^2", "TCP acceleration limit on straight-line moves"},
       {"kinematics.solver", K::kChoice, "analytic", -inf, inf, {"analytic", "hybrid", "dls", "kdl", "kdl_restarts", "trac_ik", "trac_ik_distance"}, "", "IK solver for grasp and place poses (see the IK comparison in the README)"},
-      {"planning.planner", K::kChoice, "RRTConnect", -inf, inf, {"RRTConnect"}, "", "OMPL planner"},
+      {"planning.planner", K::kChoice, "RRTConnect", -inf, inf, {"RRTConnect", "RRTstar", "InformedRRTstar", "BITstar", "ABITstar", "AITstar", "PRMstar", "LazyPRMstar", "KPIECE1"}, "", "OMPL planner (optimizing ones stop at their first solution; planners other than RRTConnect repeat exactly only with jobs: 1)"},
+      {"planning.checker", K::kChoice, "spheres+fcl", -inf, inf, {"spheres", "spheres+fcl", "fcl"}, "", "collision checker: our spheres (conservative), spheres confirmed by FCL (exact), or FCL"},
+      {"planning.time_parameterization", K::kChoice, "jerk_limited", -inf, inf, {"trapezoidal", "jerk_limited"}, "", "time parameterization of joint-space paths"},
       {"planning.time_limit", K::kDouble, "5.0", 0.01, 600.0, {}, "s", "wall-clock cap per planning call (reaching it is recorded)"},
       {"planning.padding", K::kDouble, "0.01", 0.0, 0.1, {}, "m", "robot inflation against the world"},
       {"planning.simplify", K::kBool, "true", -inf, inf, {}, "", "shortcut and reduce the planned path"},
@@ -105,6 +107,8 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
   t.planner.simplify = p.getBool("planning.simplify");
   t.planner.resolution = p.getDouble("planning.resolution");
   t.padding = p.getDouble("planning.padding");
+  t.checker = p.getString("planning.checker");
+  t.time_parameterization = p.getString("planning.time_parameterization");
   t.tolerance_position = p.getDouble("success.position_tolerance");
   t.tolerance_orientation = p.getDouble("success.orientation_tolerance");
   t.settle_time = p.getDouble("success.settle_time");

@@ -232,7 +232,7 @@ std::string runPlanBench(const PlanBenchOptions& o) {
   md << "Planning benchmark: `" << o.command_line << "`\n\n";
   md << problems.size() << " problems from " << o.scenes << " seeded bin scenes (seed " << o.seed
      << "): home -> pre-grasp among the bin's objects, lift -> pre-place holding the object, retreat -> home. Padding "
-     << o.padding * 1000 << " mm, time limit " << std::setprecision(1) << o.time_limit << " s per call, simplification "
+     << std::setprecision(1) << o.padding * 1000 << " mm, time limit " << std::setprecision(1) << o.time_limit << " s per call, simplification "
      << (o.simplify ? "on" : "off") << ", optimizing planners stop at their first solution. " << cpuModel() << ", "
      << std::thread::hardware_concurrency() << " cores, one thread. Times are wall times.\n\n";
   md << "| planner | checker | success | 95% CI | plan ms mean | median | p95 | simplify ms | path length rad | min clearance mm | checks/s |\n";

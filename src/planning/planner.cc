@@ -92,7 +92,7 @@ bool segmentValid(CollisionChecker& checker, const VecX& a, const VecX& b, doubl
 PlanResult planJointPath(const RobotModel& robot, CollisionChecker& checker, const VecX& start, const VecX& goal,
                          uint64_t seed, const PlannerOptions& o) {
   static std::once_flag quiet;
-  std::call_once(quiet, [] { ompl::msg::setLogLevel(ompl::msg::LOG_WARN); });
+  std::call_once(quiet, [] { ompl::msg::setLogLevel(ompl::msg::LOG_ERROR); });
   PlanResult r;
   const long checks0 = checker.checks();
   if (!checker.isValid(start)) {

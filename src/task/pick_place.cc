@@ -137,6 +137,11 @@ class Trial {
     return "";
   }
   uint64_t planSeed() { return rng_plan_.next(); }
+  JointTrajectory timeParameterize(const std::vector<VecX>& path) const {
+    if (o_.time_parameterization == "trapezoidal")
+      return trapezoidalTrajectory(path, robot_.vmax(), robot_.amax(), o_.scaling, hw_.period());
+    return jerkLimitedTrajectory(path, robot_.vmax(), robot_.amax(), robot_.jmax(), o_.scaling, hw_.period());
+  }
 
   // ---- pick -----------------------------------------------------------------------------------
   bool pick() {
@@ -177,8 +182,8 @@ class Trial {
     const double widest = 2 * std::max(target_obj_.half_size.x(), target_obj_.half_size.y());
     full_scene.finger_opening = approach_scene.finger_opening =
         std::min(robot_.spec().gripper.travel, widest / 2 + o_.finger_margin);
-    auto full = makeFclChecker(robot_, full_scene, o_.padding);
-    auto no_target = makeFclChecker(robot_, approach_scene, o_.padding);
+    auto full = makeChecker(o_.checker, robot_, full_scene, o_.padding);
+    auto no_target = makeChecker(o_.checker, robot_, approach_scene, o_.padding);
     std::string last_stage = "grasp_pose_ik", last_reason;
     bool found = false;
     for (size_t c = 0; c < candidates.size() && c < static_cast<size_t>(o_.max_grasp_candidates); ++c) {
@@ -208,7 +213,7 @@ class Trial {
       // Lift with the object attached.
       PlanningScene ls = scene(false, true);
       ls.attached_padding = -kSupportTolerance;  // the object leaves the bin floor it rests on
-      auto lifting = makeFclChecker(robot_, ls, o_.padding);
+      auto lifting = makeChecker(o_.checker, robot_, ls, o_.padding);
       Pose T_lift = T_grasp;
       T_lift.translation().z() += o_.lift_height;
       lift_ = planCartesianLine(robot_, *lifting, q_grasp_, T_lift, ikNear(), o_.cartesian);
@@ -233,7 +238,7 @@ class Trial {
     out_.plan_pick_time = st->compute_seconds = since(t_plan);
     if (!connect.ok) return fail("connect_pregrasp", connect.reason);
     const double dt = hw_.period();
-    const JointTrajectory t_connect = trapezoidalTrajectory(connect.path, robot_.vmax(), robot_.amax(), o_.scaling, dt);
+    const JointTrajectory t_connect = timeParameterize(connect.path);
     const JointTrajectory t_approach = cartesianTrajectory(robot_, approach_, ikNear(), o_.scaling, o_.cartesian, dt);
     const JointTrajectory t_lift = cartesianTrajectory(robot_, lift_, ikNear(), o_.scaling, o_.cartesian, dt);
     if (t_approach.empty() || t_lift.empty())
@@ -273,11 +278,11 @@ class Trial {
     const auto t_plan = Clock::now();
     StageRecord* st = &stage("place_pose_ik");
     const VecX q_lift = lift_.waypoints.back();
-    auto carrying = makeFclChecker(robot_, scene(false, true), o_.padding);
+    auto carrying = makeChecker(o_.checker, robot_, scene(false, true), o_.padding);
     // Placing: the held object goes down to the tray with no padding of its own.
     PlanningScene ps = scene(false, true);
     ps.attached_padding = -kSupportTolerance;
-    auto descending = makeFclChecker(robot_, ps, o_.padding);
+    auto descending = makeChecker(o_.checker, robot_, ps, o_.padding);
     // TCP poses that put the object at the target, one per symmetric yaw; least wrist turn first.
     const int fold = yawSymmetry(target_obj_.half_size);
     Pose T_obj_place = target_.T_world_object;
@@ -314,7 +319,7 @@ class Trial {
       // Retreat: fingers open, the placed object left behind (between the fingers, not checked).
       PlanningScene rs = scene(false, false);
       rs.finger_opening = robot_.spec().gripper.travel;
-      auto retreating = makeFclChecker(robot_, rs, o_.padding);
+      auto retreating = makeChecker(o_.checker, robot_, rs, o_.padding);
       Pose T_up = T_place;
       T_up.translation().z() += o_.retreat_distance;
       retreat_ = planCartesianLine(robot_, *retreating, descend_.waypoints.back(), T_up, ikNear(), o_.cartesian);
@@ -337,7 +342,7 @@ class Trial {
     out_.plan_place_time = st->compute_seconds = since(t_plan);
     if (!connect.ok) return fail("connect_place", connect.reason);
     const double dt = hw_.period();
-    const JointTrajectory t_connect = trapezoidalTrajectory(connect.path, robot_.vmax(), robot_.amax(), o_.scaling, dt);
+    const JointTrajectory t_connect = timeParameterize(connect.path);
     const JointTrajectory t_descend = cartesianTrajectory(robot_, descend_, ikNear(), o_.scaling, o_.cartesian, dt);
     const JointTrajectory t_retreat = cartesianTrajectory(robot_, retreat_, ikNear(), o_.scaling, o_.cartesian, dt);
     if (t_descend.empty() || t_retreat.empty())
@@ -366,13 +371,13 @@ class Trial {
     placed.T_world_object = target_.T_world_object;
     s.obstacles.push_back(boxOf(placed));
     s.finger_opening = robot_.spec().gripper.travel;
-    auto checker = makeFclChecker(robot_, s, o_.padding);
+    auto checker = makeChecker(o_.checker, robot_, s, o_.padding);
     const PlanResult r = planJointPath(robot_, *checker, retreat_.waypoints.back(), robot_.home(), planSeed(), o_.planner);
     out_.collision_checks += checker->checks();
     st.compute_seconds = home_compute_ = since(t_plan);
     out_.return_home_time += home_compute_;
     if (!r.ok) return fail("plan_home", r.reason);
-    const JointTrajectory t = trapezoidalTrajectory(r.path, robot_.vmax(), robot_.amax(), o_.scaling, hw_.period());
+    const JointTrajectory t = timeParameterize(r.path);
     return execute("return_home", t, robot_.spec().gripper.travel, o_.grasp_force, false, out_.return_home_time);
   }
 
