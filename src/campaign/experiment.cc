@@ -42,7 +42,7 @@ std::vector<ParamDecl> experimentParams() {
       {"kinematics.solver", K::kChoice, "analytic", -inf, inf, {"analytic", "hybrid", "dls", "kdl", "kdl_restarts", "trac_ik", "trac_ik_distance"}, "", "IK solver for grasp and place poses (see the IK comparison in the README)"},
       {"planning.planner", K::kChoice, "RRTConnect", -inf, inf, {"RRTConnect", "RRTstar", "InformedRRTstar", "BITstar", "ABITstar", "AITstar", "PRMstar", "LazyPRMstar", "KPIECE1"}, "", "OMPL planner (optimizing ones stop at their first solution; planners other than RRTConnect repeat exactly only with jobs: 1)"},
       {"planning.checker", K::kChoice, "spheres+fcl", -inf, inf, {"spheres", "spheres+fcl", "fcl"}, "", "collision checker: our spheres (conservative), spheres confirmed by FCL (exact), or FCL"},
-      {"planning.time_parameterization", K::kChoice, "jerk_limited", -inf, inf, {"trapezoidal", "jerk_limited"}, "", "time parameterization of joint-space paths"},
+      {"planning.time_parameterization", K::kChoice, "jerk_limited", -inf, inf, {"trapezoidal", "jerk_limited", "totg"}, "", "time parameterization of joint-space paths (totg blends corners within 0.05 rad, checked against collisions)"},
       {"planning.time_limit", K::kDouble, "5.0", 0.01, 600.0, {}, "s", "wall-clock cap per planning call (reaching it is recorded)"},
       {"planning.padding", K::kDouble, "0.01", 0.0, 0.1, {}, "m", "robot inflation against the world"},
       {"planning.simplify", K::kBool, "true", -inf, inf, {}, "", "shortcut and reduce the planned path"},

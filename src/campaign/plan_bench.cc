@@ -18,6 +18,7 @@
 #include "kinematics/ik.h"
 #include "planning/collision.h"
 #include "planning/planner.h"
+#include "planning/totg.h"
 #include "planning/trajectory.h"
 #include "sim/scene_sampler.h"
 #include "sim/sim_world.h"
@@ -147,10 +148,11 @@ struct Run {
 
 struct TpStats {
   std::vector<double> duration, max_acc, rms_acc, max_jerk, rms_jerk;
-  long within = 0, n = 0;
+  long within = 0, n = 0, failed = 0;
 };
 
-const char* kTps[] = {"trapezoidal", "jerk_limited"};
+constexpr int kNumTps = 3;
+const char* kTps[kNumTps] = {"trapezoidal", "jerk_limited", "totg"};
 
 }  // namespace
 
@@ -170,7 +172,7 @@ std::string runPlanBench(const PlanBenchOptions& o) {
   struct Combo {
     std::string planner, checker;
     std::vector<Run> runs;
-    TpStats tp[2];
+    TpStats tp[kNumTps];
   };
   std::vector<Combo> combos;
   for (const auto& checker : o.checkers)
@@ -206,12 +208,18 @@ std::string runPlanBench(const PlanBenchOptions& o) {
             cl = std::min(cl, clearance(robot, p.world, r.path[k - 1] + (r.path[k] - r.path[k - 1]) * (double(t) / m)));
         }
         run.clearance = cl;
-        for (int tp = 0; tp < 2; ++tp) {
-          const JointTrajectory traj = tp == 0 ? trapezoidalTrajectory(r.path, robot.vmax(), robot.amax(), scale, 0.002)
-                                               : jerkLimitedTrajectory(r.path, robot.vmax(), robot.amax(), robot.jmax(), scale, 0.002);
-          const LimitReport lim = checkLimits(traj, robot, 1e-6);
+        for (int tp = 0; tp < kNumTps; ++tp) {
+          const JointTrajectory traj =
+              tp == 0 ? trapezoidalTrajectory(r.path, robot.vmax(), robot.amax(), scale, 0.002)
+              : tp == 1 ? jerkLimitedTrajectory(r.path, robot.vmax(), robot.amax(), robot.jmax(), scale, 0.002)
+                        : totgTrajectory(r.path, robot, scale, 0.002);
           TpStats& s = c.tp[tp];
           ++s.n;
+          if (traj.empty()) {
+            ++s.failed;
+            continue;
+          }
+          const LimitReport lim = checkLimits(traj, robot, 1e-6);
           s.within += lim.ok && (tp == 0 || lim.max_jerk_ratio <= 1 + 1e-6);
           s.duration.push_back(traj.duration());
           s.max_acc.push_back(lim.max_acceleration_ratio);
@@ -269,11 +277,11 @@ std::string runPlanBench(const PlanBenchOptions& o) {
                       {"durations_s", r.duration}, {"reason", r.reason}});
     }
     json tps;
-    for (int tp = 0; tp < 2; ++tp) {
+    for (int tp = 0; tp < kNumTps; ++tp) {
       const TpStats& s = c.tp[tp];
       tps[kTps[tp]] = {{"duration_mean_s", moments(s.duration).mean}, {"max_acceleration_ratio", moments(s.max_acc).max},
                        {"rms_acceleration", moments(s.rms_acc).mean}, {"max_jerk_ratio", moments(s.max_jerk).max},
-                       {"rms_jerk", moments(s.rms_jerk).mean}, {"within_limits", s.within}, {"n", s.n}};
+                       {"rms_jerk", moments(s.rms_jerk).mean}, {"within_limits", s.within}, {"n", s.n}, {"failed", s.failed}};
     }
     jc.push_back({{"planner", c.planner}, {"checker", c.checker}, {"success", double(ok) / c.runs.size()}, {"ci95", {lo, hi}},
                   {"plan_ms", {{"mean", mt.mean}, {"median", percentile(t, 0.5)}, {"p95", percentile(t, 0.95)}}},
@@ -281,11 +289,12 @@ std::string runPlanBench(const PlanBenchOptions& o) {
                   {"checks_per_second", cps}, {"time_parameterizations", tps}, {"runs", runs}});
   }
   md << "\nTime parameterizations of the same paths (velocity and acceleration scaled to 50% of the limits; "
-        "jerk ratios against the Panda's jerk limits; the trapezoid's acceleration steps make its jerk unbounded):\n\n";
+        "jerk ratios against the Panda's jerk limits, read from the 2 ms samples; the trapezoid's and TOTG's acceleration "
+        "steps make their true jerk unbounded; TOTG blends corners within 0.05 rad):\n\n";
   md << "| planner | checker | method | duration s mean | max acc / limit | RMS acc rad/s² | max jerk / limit | RMS jerk rad/s³ | within limits |\n";
   md << "|---|---|---|---|---|---|---|---|---|\n";
   for (const Combo& c : combos)
-    for (int tp = 0; tp < 2; ++tp) {
+    for (int tp = 0; tp < kNumTps; ++tp) {
       const TpStats& s = c.tp[tp];
       md << "| " << c.planner << " | " << c.checker << " | " << kTps[tp] << " | " << std::setprecision(3) << moments(s.duration).mean
          << " | " << moments(s.max_acc).max << " | " << std::setprecision(2) << moments(s.rms_acc).mean << " | "
@@ -331,10 +340,11 @@ std::string runPlanBench(const PlanBenchOptions& o) {
     log << "2 common properties\n";
     log << "collision checker = " << c.checker << "\n";
     log << "simplify = " << (o.simplify ? 1 : 0) << "\n";
-    log << "11 properties for each run\n";
+    log << "12 properties for each run\n";
     log << "time REAL\nsolved BOOLEAN\nsimplification time REAL\nsolution length REAL\nsimplified solution length REAL\n"
            "solution segments INTEGER\nsimplified solution segments INTEGER\ncollision checks INTEGER\n"
-           "simplified solution clearance REAL\ntrajectory duration trapezoidal REAL\ntrajectory duration jerk_limited REAL\n";
+           "simplified solution clearance REAL\ntrajectory duration trapezoidal REAL\ntrajectory duration jerk_limited REAL\n"
+           "trajectory duration totg REAL\n";
     log << c.runs.size() << " runs\n";
     for (const Run& r : c.runs) {
       auto num = [&](double v) { return r.solved ? std::to_string(v) : std::string(""); };
@@ -342,7 +352,8 @@ std::string runPlanBench(const PlanBenchOptions& o) {
           << num(r.length) << "; " << (r.solved ? std::to_string(r.raw_segments) : "") << "; "
           << (r.solved ? std::to_string(r.segments) : "") << "; " << r.checks << "; " << num(r.clearance) << "; "
           << (r.solved ? std::to_string(r.duration.at("trapezoidal")) : "") << "; "
-          << (r.solved ? std::to_string(r.duration.at("jerk_limited")) : "") << "; \n";
+          << (r.solved ? std::to_string(r.duration.at("jerk_limited")) : "") << "; "
+          << (r.solved && r.duration.count("totg") ? std::to_string(r.duration.at("totg")) : "") << "; \n";
     }
     log << ".\n";
   }

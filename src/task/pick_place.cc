@@ -6,6 +6,7 @@
 
 #include "core/rng.h"
 #include "sim/controllers.h"
+#include "planning/totg.h"
 #include "sim/hardware.h"
 
 namespace mm {
@@ -137,9 +138,17 @@ class Trial {
     return "";
   }
   uint64_t planSeed() { return rng_plan_.next(); }
-  JointTrajectory timeParameterize(const std::vector<VecX>& path) const {
+  // `checker` is the one that validated `path`: TOTG's blends leave the path by up to 0.05 rad, so
+  // its samples are checked, and a collision falls back to the exact path (jerk-limited).
+  JointTrajectory timeParameterize(const std::vector<VecX>& path, CollisionChecker& checker) const {
     if (o_.time_parameterization == "trapezoidal")
       return trapezoidalTrajectory(path, robot_.vmax(), robot_.amax(), o_.scaling, hw_.period());
+    if (o_.time_parameterization == "totg") {
+      const JointTrajectory t = totgTrajectory(path, robot_, o_.scaling, hw_.period());
+      bool ok = !t.empty();
+      for (int k = 0; ok && k < t.size(); k += 5) ok = checker.isValid(t.q.col(k));
+      if (ok) return t;
+    }
     return jerkLimitedTrajectory(path, robot_.vmax(), robot_.amax(), robot_.jmax(), o_.scaling, hw_.period());
   }
 
@@ -238,7 +247,7 @@ class Trial {
     out_.plan_pick_time = st->compute_seconds = since(t_plan);
     if (!connect.ok) return fail("connect_pregrasp", connect.reason);
     const double dt = hw_.period();
-    const JointTrajectory t_connect = timeParameterize(connect.path);
+    const JointTrajectory t_connect = timeParameterize(connect.path, *full);
     const JointTrajectory t_approach = cartesianTrajectory(robot_, approach_, ikNear(), o_.scaling, o_.cartesian, dt);
     const JointTrajectory t_lift = cartesianTrajectory(robot_, lift_, ikNear(), o_.scaling, o_.cartesian, dt);
     if (t_approach.empty() || t_lift.empty())
@@ -342,7 +351,7 @@ class Trial {
     out_.plan_place_time = st->compute_seconds = since(t_plan);
     if (!connect.ok) return fail("connect_place", connect.reason);
     const double dt = hw_.period();
-    const JointTrajectory t_connect = timeParameterize(connect.path);
+    const JointTrajectory t_connect = timeParameterize(connect.path, *carrying);
     const JointTrajectory t_descend = cartesianTrajectory(robot_, descend_, ikNear(), o_.scaling, o_.cartesian, dt);
     const JointTrajectory t_retreat = cartesianTrajectory(robot_, retreat_, ikNear(), o_.scaling, o_.cartesian, dt);
     if (t_descend.empty() || t_retreat.empty())
@@ -377,7 +386,7 @@ class Trial {
     st.compute_seconds = home_compute_ = since(t_plan);
     out_.return_home_time += home_compute_;
     if (!r.ok) return fail("plan_home", r.reason);
-    const JointTrajectory t = timeParameterize(r.path);
+    const JointTrajectory t = timeParameterize(r.path, *checker);
     return execute("return_home", t, robot_.spec().gripper.travel, o_.grasp_force, false, out_.return_home_time);
   }
 

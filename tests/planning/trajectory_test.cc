@@ -146,3 +146,77 @@ TEST(JerkLimitedTrajectory, NoFasterThanTheTrapezoid) {
 
 }  // namespace
 }  // namespace mm
+
+#include "planning/totg.h"
+
+namespace mm {
+namespace {
+
+// 200 random paths of 2-6 waypoints inside the joint range (seed 23), random scalings: TOTG's
+// samples stay within the scaled velocity and acceleration limits (analytic values and finite
+// differences alike), pass within max_deviation of every waypoint and end exactly at the last one.
+// (How its duration compares with stopping at each waypoint is measured by plan-bench, not
+// asserted: on sharp random corners our implementation can lose up to ~2% to its global limit
+// tightening, see the README.)
+TEST(Totg, WithinLimitsAndNearTheWaypoints) {
+  const RobotModel& r = panda();
+  Rng rng(23);
+  TotgOptions o;
+  for (int trial = 0; trial < 200; ++trial) {
+    std::vector<VecX> wp;
+    const int n = 2 + static_cast<int>(rng.below(5));
+    for (int i = 0; i < n; ++i) {
+      VecX q(r.dof());
+      for (int j = 0; j < r.dof(); ++j) q[j] = rng.uniform(r.lower()[j] + 0.1, r.upper()[j] - 0.1);
+      wp.push_back(q);
+    }
+    const LimitScaling s{rng.uniform(0.2, 1.0), rng.uniform(0.2, 1.0)};
+    const JointTrajectory t = totgTrajectory(wp, r, s, 0.002, o);
+    ASSERT_FALSE(t.empty()) << "trial " << trial;
+    JointTrajectory fd = t;
+    differentiate(fd);
+    for (const JointTrajectory* x : {&t, static_cast<const JointTrajectory*>(&fd)}) {
+      const LimitReport rep = checkLimits(*x, r, 0.0);
+      EXPECT_TRUE(rep.positions_ok) << trial;
+      EXPECT_LE(rep.max_velocity_ratio, s.velocity * (1 + 1e-6)) << trial;
+      EXPECT_LE(rep.max_acceleration_ratio, s.acceleration * (1 + 1e-6)) << trial;
+    }
+    EXPECT_LT((t.q.col(t.size() - 1) - wp.back()).norm(), 1e-9);
+    for (size_t i = 1; i + 1 < wp.size(); ++i) {
+      double nearest = INFINITY;
+      for (int k = 0; k < t.size(); ++k) nearest = std::min(nearest, (t.q.col(k) - wp[i]).norm());
+      EXPECT_LE(nearest, o.max_deviation + 0.01) << "trial " << trial << " waypoint " << i;
+    }
+  }
+}
+
+// A dense path along a gentle curve (12 waypoints on a quarter circle through joints 1 and 2):
+// stopping at every waypoint wastes most of the time, blending through them does not.
+TEST(Totg, BlendsThroughGentleCornersMuchFasterThanStopping) {
+  const RobotModel& r = panda();
+  std::vector<VecX> wp;
+  for (int k = 0; k < 12; ++k) {
+    VecX q = r.home();
+    const double phi = 0.5 * M_PI * k / 11;
+    q[0] = std::cos(phi) - 1.0;
+    q[1] = -0.785 + std::sin(phi);
+    wp.push_back(q);
+  }
+  const LimitScaling s{0.5, 0.5};
+  const JointTrajectory t = totgTrajectory(wp, r, s, 0.002);
+  ASSERT_FALSE(t.empty());
+  const double stop = trapezoidalTrajectory(wp, r.vmax(), r.amax(), s, 0.002).duration();
+  EXPECT_LT(t.duration(), 0.6 * stop) << "totg " << t.duration() << " s, stopping " << stop << " s";
+}
+
+TEST(Totg, StraightLineIsTheTimeOptimalTrapezoid) {
+  const RobotModel& r = panda();
+  VecX a = r.home(), b = r.home();
+  b[0] += 1.0, b[3] += 0.5, b[5] -= 0.3;
+  const LimitScaling s{0.5, 0.5};
+  EXPECT_NEAR(totgTrajectory({a, b}, r, s, 0.002).duration(),
+              trapezoidalTrajectory({a, b}, r.vmax(), r.amax(), s, 0.002).duration(), 0.002 + 1e-9);
+}
+
+}  // namespace
+}  // namespace mm
