@@ -37,9 +37,10 @@ std::vector<GraspCandidate> topDownGrasps(const ObjectState& target, double pref
     const double width = 2 * target.half_size[a];
     if (width > o.max_opening - o.width_margin) continue;
     const double theta = std::atan2(axis.y(), axis.x());
-    for (double flip : {M_PI / 2, -M_PI / 2}) {  // both finger orientations
+    for (double flip : {M_PI / 2, -M_PI / 2})  // both finger orientations
+      for (double offset : o.yaw_offsets) {
       GraspCandidate g;
-      g.yaw = wrapAngle(theta + flip);
+      g.yaw = wrapAngle(theta + flip + offset);
       g.width = width;
       const Mat3 Rt = topDownRotation(g.yaw);
       const Vec3 p(c.x(), c.y(), c.z() + o.depth);
@@ -53,7 +54,8 @@ std::vector<GraspCandidate> topDownGrasps(const ObjectState& target, double pref
           const Vec3 tip_high(tip.x(), tip.y(), std::min(tip.z(), top));
           g.clearance = std::min(g.clearance, distanceToBox(tip_high, n));
         }
-      g.score = -std::abs(wrapAngle(g.yaw - preferred_yaw)) + o.clearance_weight * g.clearance;
+      g.score = -std::abs(wrapAngle(g.yaw - preferred_yaw)) + o.clearance_weight * g.clearance -
+                o.offset_penalty * std::abs(offset);
       out.push_back(g);
     }
   }

@@ -2,6 +2,7 @@
 // orientations about each pair of faces, ranked by wrist rotation and finger clearance.
 #pragma once
 #include <vector>
+#include <string>
 
 #include "core/geometry.h"
 
@@ -13,6 +14,11 @@ struct GraspOptions {
   double depth = 0.0;             ///< [m] TCP above the object's center (positive = higher)
   double finger_reach = 0.06;     ///< [m] half span of the open fingers from the TCP (for clearance)
   double clearance_weight = 10.0; ///< score per metre of clearance (capped at 5 cm)
+  /// Yaw samples [rad] around each face-aligned grasp: the aligned one (0) and offsets from it.
+  /// The penalty per radian of offset is large enough that every aligned candidate is tried
+  /// before any misaligned one (which relies on the pads turning the object as they close).
+  std::vector<double> yaw_offsets = {0.0, 0.15, -0.15, 0.3, -0.3};
+  double offset_penalty = 100.0;
 };
 
 struct GraspCandidate {
@@ -23,7 +29,8 @@ struct GraspCandidate {
   double score = 0;
 };
 
-/// Candidates for `target`, best first. `preferred_yaw` is the TCP yaw needing no wrist rotation;
+/// Candidates for `target`, best first: for each pair of vertical faces, both finger
+/// orientations, at each sampled yaw offset. `preferred_yaw` is the TCP yaw needing no wrist rotation;
 /// `neighbours` are the other objects and obstacles the open fingers should keep clear of.
 /// An object that is not upright (tilted over 15 degrees) or too wide gives no candidate.
 std::vector<GraspCandidate> topDownGrasps(const ObjectState& target, double preferred_yaw,
