@@ -44,6 +44,7 @@ std::vector<ParamDecl> experimentParams() {
       {"planning.checker", K::kChoice, "spheres+fcl", -inf, inf, {"spheres", "spheres+fcl", "fcl"}, "", "collision checker: our spheres (conservative), spheres confirmed by FCL (exact), or FCL"},
       {"planning.time_parameterization", K::kChoice, "jerk_limited", -inf, inf, {"trapezoidal", "jerk_limited", "totg"}, "", "time parameterization of joint-space paths (totg blends corners within 0.05 rad, checked against collisions)"},
       {"planning.time_limit", K::kDouble, "5.0", 0.01, 600.0, {}, "s", "wall-clock cap per planning call (reaching it is recorded)"},
+      {"planning.optimizer", K::kChoice, "none", -inf, inf, {"none", "chomp"}, "", "optimizing post-processor after the planner (CHOMP-style; time-parameterize its dense paths with totg)"},
       {"planning.padding", K::kDouble, "0.01", 0.0, 0.1, {}, "m", "robot inflation against the world"},
       {"planning.simplify", K::kBool, "true", -inf, inf, {}, "", "shortcut and reduce the planned path"},
       {"planning.resolution", K::kDouble, "0.02", 0.001, 0.2, {}, "rad", "edge validation step"},
@@ -108,6 +109,7 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
   t.planner.resolution = p.getDouble("planning.resolution");
   t.padding = p.getDouble("planning.padding");
   t.checker = p.getString("planning.checker");
+  t.optimizer = p.getString("planning.optimizer");
   t.time_parameterization = p.getString("planning.time_parameterization");
   t.tolerance_position = p.getDouble("success.position_tolerance");
   t.tolerance_orientation = p.getDouble("success.orientation_tolerance");

@@ -16,6 +16,7 @@
 #include "core/error.h"
 #include "grasp/grasp.h"
 #include "kinematics/ik.h"
+#include "planning/chomp.h"
 #include "planning/collision.h"
 #include "planning/planner.h"
 #include "planning/totg.h"
@@ -171,12 +172,17 @@ std::string runPlanBench(const PlanBenchOptions& o) {
 
   struct Combo {
     std::string planner, checker;
+    bool optimize = false;
     std::vector<Run> runs;
     TpStats tp[kNumTps];
   };
   std::vector<Combo> combos;
+  if (!o.optimizer.empty() && o.optimizer != "chomp") throw InputError("--optimizer " + o.optimizer, "expected chomp");
   for (const auto& checker : o.checkers)
-    for (const auto& planner : planners) combos.push_back(Combo{planner, checker, {}, {}});
+    for (const auto& planner : planners) {
+      combos.push_back(Combo{planner, checker, false, {}, {}});
+      if (!o.optimizer.empty()) combos.push_back(Combo{planner, checker, true, {}, {}});
+    }
   const LimitScaling scale{0.5, 0.5};
   // Problem by problem, every combination back to back: load changes on a shared machine then
   // affect all contenders alike.
@@ -188,8 +194,15 @@ std::string runPlanBench(const PlanBenchOptions& o) {
       po.planner = c.planner;
       po.time_limit = o.time_limit;
       po.simplify = o.simplify;
-      const PlanResult r = planJointPath(robot, *chk, p.start, p.goal, mixSeed(o.seed, i, 7), po);
+      PlanResult r = planJointPath(robot, *chk, p.start, p.goal, mixSeed(o.seed, i, 7), po);
       Run run;
+      if (c.optimize && r.ok) {  // the planner's path, then CHOMP (its time counts as planning)
+        const ChompResult opt = chompSmooth(robot, p.world, *chk, r.path);
+        r.plan_seconds += opt.seconds;
+        r.path = opt.path;
+        r.length = 0;
+        for (size_t k = 1; k < r.path.size(); ++k) r.length += (r.path[k] - r.path[k - 1]).norm();
+      }
       run.solved = r.ok;
       run.time = r.plan_seconds;
       run.simplify = r.simplify_seconds;
@@ -264,7 +277,7 @@ std::string runPlanBench(const PlanBenchOptions& o) {
     const auto [lo, hi] = wilson95(ok, static_cast<long>(c.runs.size()));
     const Moments mt = moments(t), ms = moments(simp), ml = moments(len), mc = moments(clr);
     const double cps = plan_time > 0 ? checks / plan_time : 0;
-    md << "| " << c.planner << " | " << c.checker << " | " << std::setprecision(1) << 100.0 * ok / c.runs.size() << "% | "
+    md << "| " << c.planner << (c.optimize ? "+chomp" : "") << " | " << c.checker << " | " << std::setprecision(1) << 100.0 * ok / c.runs.size() << "% | "
        << 100 * lo << "–" << 100 * hi << "% | " << std::setprecision(3) << mt.mean << " | " << percentile(t, 0.5) << " | "
        << percentile(t, 0.95) << " | " << ms.mean << " | " << std::setprecision(2) << ml.mean << " | " << std::setprecision(1)
        << mc.min << " | " << std::setprecision(0) << cps << " |\n";
@@ -283,7 +296,7 @@ std::string runPlanBench(const PlanBenchOptions& o) {
                        {"rms_acceleration", moments(s.rms_acc).mean}, {"max_jerk_ratio", moments(s.max_jerk).max},
                        {"rms_jerk", moments(s.rms_jerk).mean}, {"within_limits", s.within}, {"n", s.n}, {"failed", s.failed}};
     }
-    jc.push_back({{"planner", c.planner}, {"checker", c.checker}, {"success", double(ok) / c.runs.size()}, {"ci95", {lo, hi}},
+    jc.push_back({{"planner", c.planner + (c.optimize ? "+chomp" : "")}, {"checker", c.checker}, {"success", double(ok) / c.runs.size()}, {"ci95", {lo, hi}},
                   {"plan_ms", {{"mean", mt.mean}, {"median", percentile(t, 0.5)}, {"p95", percentile(t, 0.95)}}},
                   {"simplify_ms_mean", ms.mean}, {"path_length_mean", ml.mean}, {"min_clearance_mm", mc.min},
                   {"checks_per_second", cps}, {"time_parameterizations", tps}, {"runs", runs}});
@@ -296,7 +309,7 @@ std::string runPlanBench(const PlanBenchOptions& o) {
   for (const Combo& c : combos)
     for (int tp = 0; tp < kNumTps; ++tp) {
       const TpStats& s = c.tp[tp];
-      md << "| " << c.planner << " | " << c.checker << " | " << kTps[tp] << " | " << std::setprecision(3) << moments(s.duration).mean
+      md << "| " << c.planner << (c.optimize ? "+chomp" : "") << " | " << c.checker << " | " << kTps[tp] << " | " << std::setprecision(3) << moments(s.duration).mean
          << " | " << moments(s.max_acc).max << " | " << std::setprecision(2) << moments(s.rms_acc).mean << " | "
          << std::setprecision(1) << moments(s.max_jerk).max << " | " << moments(s.rms_jerk).mean << " | " << s.within << "/" << s.n
          << " |\n";
@@ -336,7 +349,7 @@ std::string runPlanBench(const PlanBenchOptions& o) {
   log << "0 enum type\n";
   log << combos.size() << " planners\n";
   for (const Combo& c : combos) {
-    log << "geometric_" << c.planner << "_" << c.checker << "\n";
+    log << "geometric_" << c.planner << (c.optimize ? "_chomp" : "") << "_" << c.checker << "\n";
     log << "2 common properties\n";
     log << "collision checker = " << c.checker << "\n";
     log << "simplify = " << (o.simplify ? 1 : 0) << "\n";

@@ -19,6 +19,7 @@ struct PlanBenchOptions {
   std::vector<std::string> planners;      ///< empty: all
   std::vector<std::string> checkers = {"spheres", "spheres+fcl", "fcl"};
   bool simplify = true;
+  std::string optimizer;                  ///< "chomp": also run each planner followed by CHOMP
   std::string out_dir = "results/plan-bench";
   std::string command_line;
 };

@@ -51,6 +51,20 @@ std::unique_ptr<CollisionChecker> makeFclChecker(const RobotModel& robot, const 
 std::unique_ptr<CollisionChecker> makeSphereChecker(const RobotModel& robot, const PlanningScene& scene, double padding,
                                                     bool confirm_with_fcl);
 
+/// The robot's collision primitives covered by spheres (the cover the sphere checker uses), with
+/// `padding` applied the way FCL pads. For optimizers that need distances and gradients.
+struct SphereModel {
+  std::vector<int> link;       ///< index into RobotModel::links()
+  std::vector<Vec3> local;     ///< center in the link frame [m]
+  std::vector<double> radius;  ///< [m]
+};
+SphereModel coverRobot(const RobotModel& robot, double padding);
+
+/// Signed distance [m] from a sphere (center c, radius r) to the nearest obstacle of the scene
+/// (negative inside), and its gradient with respect to c. +inf with a zero gradient if the scene
+/// has no obstacle.
+double sphereSceneDistance(const PlanningScene& scene, const Vec3& c, double r, Vec3& gradient);
+
 /// Smallest distance [m] between the robot's links (no padding; the base excluded) and the
 /// scene's obstacles at q, by FCL; negative depth is reported as 0.
 double clearance(const RobotModel& robot, const PlanningScene& scene, const VecX& q);

@@ -394,6 +394,59 @@ class SphereChecker final : public CollisionChecker {
 
 }  // namespace
 
+SphereModel coverRobot(const RobotModel& robot, double padding) {
+  std::vector<LocalSphere> all;
+  for (const auto& s : robot.collisionShapes()) coverShape(padded(s, padding), all);
+  SphereModel m;
+  for (const auto& s : all) {
+    m.link.push_back(s.link);
+    m.local.push_back(s.c);
+    m.radius.push_back(s.r);
+  }
+  return m;
+}
+
+double sphereSceneDistance(const PlanningScene& scene, const Vec3& c, double r, Vec3& gradient) {
+  double best = INFINITY;
+  gradient.setZero();
+  for (const auto& o : scene.obstacles) {
+    if (std::find(scene.ignore.begin(), scene.ignore.end(), o.name) != scene.ignore.end()) continue;
+    double d;
+    Vec3 g;
+    if (o.type == Obstacle::Type::kBox) {
+      const Mat3& R = o.T_world.linear();
+      const Vec3 local = R.transpose() * (c - o.T_world.translation());
+      const Vec3 outside = (local.cwiseAbs() - o.size).cwiseMax(0.0);
+      if (outside.squaredNorm() > 0) {  // outside: distance to the nearest box point
+        const Vec3 nearest = local.cwiseMax(-o.size).cwiseMin(o.size);
+        const Vec3 v = local - nearest;
+        d = v.norm() - r;
+        g = R * (v / v.norm());
+      } else {  // inside: the nearest face, negative
+        const Vec3 depth = o.size - local.cwiseAbs();
+        int a;
+        depth.minCoeff(&a);
+        Vec3 n = Vec3::Zero();
+        n[a] = local[a] >= 0 ? 1.0 : -1.0;
+        d = -depth[a] - r;
+        g = R * n;
+      }
+    } else {
+      const double half = o.type == Obstacle::Type::kSphere ? 0.0 : o.size.y();
+      const Vec3 axis = o.T_world.linear().col(2);
+      const Vec3 a = o.T_world.translation() - half * axis, b = o.T_world.translation() + half * axis;
+      const Vec3 ab = b - a;
+      const double t = ab.squaredNorm() > 0 ? std::clamp((c - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0) : 0.0;
+      const Vec3 v = c - (a + t * ab);
+      const double len = v.norm();
+      d = len - o.size.x() - r;
+      g = len > 1e-12 ? Vec3(v / len) : Vec3::UnitZ();
+    }
+    if (d < best) best = d, gradient = g;
+  }
+  return best;
+}
+
 std::unique_ptr<CollisionChecker> makeSphereChecker(const RobotModel& robot, const PlanningScene& scene, double padding,
                                                     bool confirm_with_fcl) {
   return std::make_unique<SphereChecker>(robot, scene, padding, confirm_with_fcl);

@@ -6,6 +6,7 @@
 
 #include "core/rng.h"
 #include "sim/controllers.h"
+#include "planning/chomp.h"
 #include "planning/totg.h"
 #include "sim/hardware.h"
 
@@ -138,6 +139,11 @@ class Trial {
     return "";
   }
   uint64_t planSeed() { return rng_plan_.next(); }
+  // The optional optimizer after the planner (CHOMP); its time counts as planning time.
+  void optimize(PlanResult& r, const PlanningScene& scene, CollisionChecker& checker) const {
+    if (o_.optimizer != "chomp" || !r.ok) return;
+    r.path = chompSmooth(robot_, scene, checker, r.path).path;
+  }
   // `checker` is the one that validated `path`: TOTG's blends leave the path by up to 0.05 rad, so
   // its samples are checked, and a collision falls back to the exact path (jerk-limited).
   JointTrajectory timeParameterize(const std::vector<VecX>& path, CollisionChecker& checker) const {
@@ -242,7 +248,8 @@ class Trial {
       return fail(last_stage, last_reason + " (after " + std::to_string(out_.grasp_candidates_tried) + " grasp candidates)");
     }
     st = &stage("connect_pregrasp");
-    const PlanResult connect = planJointPath(robot_, *full, q0, q_pre_, planSeed(), o_.planner);
+    PlanResult connect = planJointPath(robot_, *full, q0, q_pre_, planSeed(), o_.planner);
+    optimize(connect, full_scene, *full);
     out_.collision_checks += full->checks() + no_target->checks();
     out_.plan_pick_time = st->compute_seconds = since(t_plan);
     if (!connect.ok) return fail("connect_pregrasp", connect.reason);
@@ -346,7 +353,8 @@ class Trial {
       return fail(last_stage, last_reason);
     }
     st = &stage("connect_place");
-    const PlanResult connect = planJointPath(robot_, *carrying, q_lift, q_preplace, planSeed(), o_.planner);
+    PlanResult connect = planJointPath(robot_, *carrying, q_lift, q_preplace, planSeed(), o_.planner);
+    optimize(connect, scene(false, true), *carrying);
     out_.collision_checks += carrying->checks() + descending->checks();
     out_.plan_place_time = st->compute_seconds = since(t_plan);
     if (!connect.ok) return fail("connect_place", connect.reason);
@@ -381,7 +389,8 @@ class Trial {
     s.obstacles.push_back(boxOf(placed));
     s.finger_opening = robot_.spec().gripper.travel;
     auto checker = makeChecker(o_.checker, robot_, s, o_.padding);
-    const PlanResult r = planJointPath(robot_, *checker, retreat_.waypoints.back(), robot_.home(), planSeed(), o_.planner);
+    PlanResult r = planJointPath(robot_, *checker, retreat_.waypoints.back(), robot_.home(), planSeed(), o_.planner);
+    optimize(r, s, *checker);
     out_.collision_checks += checker->checks();
     st.compute_seconds = home_compute_ = since(t_plan);
     out_.return_home_time += home_compute_;
