@@ -1,5 +1,6 @@
 #include "planning/chomp.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -92,6 +93,26 @@ void solveMetric(std::vector<VecX>& b) {
   for (int i = m - 2; i >= 0; --i) b[i] = dp[i] - cp[i] * b[i + 1];
 }
 
+// Douglas-Peucker on [a, b]: keep the farthest point from the chord if it deviates more than tol,
+// or if the chord itself is not collision-free; recurse on both halves.
+void reduce(const std::vector<VecX>& x, int a, int b, double tol, CollisionChecker& checker, double res,
+            std::vector<int>& keep) {
+  if (b - a < 2) return;
+  const VecX chord = x[b] - x[a];
+  const double len2 = chord.squaredNorm();
+  int far = -1;
+  double worst = 0;
+  for (int i = a + 1; i < b; ++i) {
+    const double t = len2 > 0 ? std::clamp((x[i] - x[a]).dot(chord) / len2, 0.0, 1.0) : 0.0;
+    const double d = (x[i] - (x[a] + t * chord)).norm();
+    if (d > worst) worst = d, far = i;
+  }
+  if (worst <= tol && segmentValid(checker, x[a], x[b], res)) return;
+  keep.push_back(far);
+  reduce(x, a, far, tol, checker, res, keep);
+  reduce(x, far, b, tol, checker, res, keep);
+}
+
 }  // namespace
 
 ChompResult chompSmooth(const RobotModel& robot, const PlanningScene& scene, CollisionChecker& checker,
@@ -160,7 +181,13 @@ ChompResult chompSmooth(const RobotModel& robot, const PlanningScene& scene, Col
   for (size_t k = 1; valid && k < xi.size(); ++k) valid = segmentValid(checker, xi[k - 1], xi[k], o.resolution);
   if (valid) {
     r.improved = true;
-    r.path = xi;
+    std::vector<int> keep{0, static_cast<int>(xi.size()) - 1};
+    if (o.reduce_tolerance > 0) reduce(xi, 0, static_cast<int>(xi.size()) - 1, o.reduce_tolerance, checker, o.resolution, keep);
+    else
+      for (int i = 1; i + 1 < static_cast<int>(xi.size()); ++i) keep.push_back(i);
+    std::sort(keep.begin(), keep.end());
+    r.path.clear();
+    for (int i : keep) r.path.push_back(xi[i]);
   } else {
     r.reason = r.cost_after < r.cost_before ? "optimized path failed validation" : "no improvement";
   }

@@ -22,6 +22,10 @@ struct ChompOptions {
   double acceleration_weight = 1.0;  ///< squared second differences: spreads corners into curves
   double step = 0.05;         ///< 1 / eta: the covariant step size
   double resolution = 0.02;   ///< [rad] edge validation step of the result
+  /// The optimized waypoints are reduced (Douglas-Peucker in joint space) to those that deviate
+  /// more than this [rad] from straight segments, keeping every shortened segment collision-free:
+  /// a time parameterization then blends a few gentle corners instead of many tiny ones.
+  double reduce_tolerance = 0.03;
 };
 
 struct ChompResult {
