@@ -45,6 +45,11 @@ class CollisionChecker {
 /// the home configuration (as MoveIt's setup assistant's "adjacent" and "default" rules).
 std::unique_ptr<CollisionChecker> makeFclChecker(const RobotModel& robot, const PlanningScene& scene, double padding);
 
+/// The link pairs checked for self-collision (MoveIt's allowed-collision rules, link level): links
+/// more than one frame apart in the chain whose primitives do not touch at the home configuration
+/// (with the fingers at `finger_opening`). Both checkers use this one rule.
+std::vector<std::pair<int, int>> selfCollisionLinkPairs(const RobotModel& robot, double finger_opening);
+
 /// Our fast checker: the robot's primitives covered by spheres (conservative: never free where FCL
 /// with the same padding finds a collision), exact sphere-vs-primitive tests, no allocation per
 /// check. With `confirm_with_fcl`, a sphere hit is confirmed by FCL, so answers equal FCL's.

@@ -104,17 +104,11 @@ class FclChecker final : public CollisionChecker {
       const Pose T_hand_tcp = makePose(Vec3(0, 0, robot.spec().tcp_offset), Mat3::Identity());
       attached_.T_local = T_hand_tcp * scene.T_tcp_attached;
     }
-    // Self-collision pairs: links more than one frame apart that do not touch at home.
-    const auto& links = robot.links();
-    std::vector<Pose> T;
-    robot.linkPoses(robot.home(), scene.finger_opening, T);
-    for (size_t i = 0; i < bare_.size(); ++i)
-      for (size_t j = i + 1; j < bare_.size(); ++j) {
-        const int li = bare_[i].link, lj = bare_[j].link;
-        if (li == lj || std::abs(links[li].frame - links[lj].frame) <= 1) continue;
-        if (collide(bare_[i], T[li] * bare_[i].T_local, bare_[j], T[lj] * bare_[j].T_local)) continue;
-        self_pairs_.push_back({static_cast<int>(i), static_cast<int>(j)});
-      }
+    // Self-collision: every primitive pair of the checked link pairs.
+    for (const auto& [la, lb] : selfCollisionLinkPairs(robot, scene.finger_opening))
+      for (size_t i = 0; i < bare_.size(); ++i)
+        for (size_t j = 0; j < bare_.size(); ++j)
+          if (bare_[i].link == la && bare_[j].link == lb) self_pairs_.push_back({static_cast<int>(i), static_cast<int>(j)});
   }
 
   bool isValid(const VecX& q) override {
@@ -166,6 +160,26 @@ class FclChecker final : public CollisionChecker {
 };
 
 }  // namespace
+
+std::vector<std::pair<int, int>> selfCollisionLinkPairs(const RobotModel& robot, double finger_opening) {
+  const auto& links = robot.links();
+  std::vector<Pose> T;
+  robot.linkPoses(robot.home(), finger_opening, T);
+  std::vector<Body> bare;
+  for (const auto& s : robot.collisionShapes()) bare.push_back(robotShape(s, 0.0));
+  std::vector<std::pair<int, int>> out;
+  for (size_t a = 0; a < links.size(); ++a)
+    for (size_t b = a + 1; b < links.size(); ++b) {
+      if (std::abs(links[a].frame - links[b].frame) <= 1) continue;
+      bool touch = false;
+      for (const Body& x : bare)
+        for (const Body& y : bare)
+          if (!touch && x.link == static_cast<int>(a) && y.link == static_cast<int>(b))
+            touch = collide(x, T[a] * x.T_local, y, T[b] * y.T_local);
+      if (!touch) out.push_back({static_cast<int>(a), static_cast<int>(b)});
+    }
+  return out;
+}
 
 double clearance(const RobotModel& robot, const PlanningScene& scene, const VecX& q) {
   std::vector<Pose> T;

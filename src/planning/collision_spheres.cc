@@ -12,8 +12,6 @@
 //
 // Layout: sphere centers in structure-of-arrays form, transformed per link; a link's bounding
 // sphere is tested first (broadphase); the first contact ends the check. No allocation per check.
-#include <fcl/fcl.h>
-
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -138,7 +136,7 @@ class SphereChecker final : public CollisionChecker {
     // Self pairs: the same link pairs FCL checks (more than one frame apart, not touching at home),
     // as sphere index pairs.
     if (confirm_with_fcl) fcl_ = makeFclChecker(robot, scene, pad);
-    self_links_ = selfLinkPairs(robot, scene.finger_opening);
+    self_links_ = selfCollisionLinkPairs(robot, scene.finger_opening);
     if (std::getenv("MM_SPHERES_DEBUG"))
       std::fprintf(stderr, "spheres: world %zu, self %zu, self link pairs %zu, boxes %zu\n", world_.r.size(), self_.r.size(),
                    self_links_.size(), boxes_.size());
@@ -162,46 +160,6 @@ class SphereChecker final : public CollisionChecker {
   std::string lastCollision() const override { return last_; }
 
  private:
-  static std::vector<std::pair<int, int>> selfLinkPairs(const RobotModel& robot, double opening) {
-    // Reuse FCL's rule: links more than one frame apart that do not touch at home.
-    const auto& links = robot.links();
-    std::vector<Pose> T;
-    robot.linkPoses(robot.home(), opening, T);
-    std::vector<std::pair<int, int>> out;
-    for (size_t a = 0; a < links.size(); ++a)
-      for (size_t b = a + 1; b < links.size(); ++b) {
-        if (std::abs(links[a].frame - links[b].frame) <= 1) continue;
-        if (linksTouchAtHome(robot, static_cast<int>(a), static_cast<int>(b), T)) continue;
-        out.push_back({static_cast<int>(a), static_cast<int>(b)});
-      }
-    return out;
-  }
-  static bool linksTouchAtHome(const RobotModel& robot, int a, int b, const std::vector<Pose>& T) {
-    for (const auto& sa : robot.collisionShapes()) {
-      if (sa.link != a) continue;
-      for (const auto& sb : robot.collisionShapes()) {
-        if (sb.link != b) continue;
-        auto geom = [](const CollisionShape& s) -> std::shared_ptr<fcl::CollisionGeometryd> {
-          if (s.type == CollisionShape::Type::kSphere) return std::make_shared<fcl::Sphered>(s.size.x());
-          if (s.type == CollisionShape::Type::kCylinder) return std::make_shared<fcl::Cylinderd>(s.size.x(), s.size.y());
-          return std::make_shared<fcl::Boxd>(s.size);
-        };
-        auto tf = [](const Pose& P) {
-          fcl::Transform3d X = fcl::Transform3d::Identity();
-          X.linear() = P.linear();
-          X.translation() = P.translation();
-          return X;
-        };
-        fcl::CollisionRequestd req;
-        fcl::CollisionResultd res;
-        const auto ga = geom(sa), gb = geom(sb);
-        fcl::collide(ga.get(), tf(T[a] * sa.T_link_shape), gb.get(), tf(T[b] * sb.T_link_shape), req, res);
-        if (res.isCollision()) return true;
-      }
-    }
-    return false;
-  }
-
   bool worldHit() {
     Spheres& w = world_;
     const int nl = static_cast<int>(w.link_bound.size());

@@ -28,6 +28,36 @@ struct Profile {
   }
 };
 
+// Samples a path of straight segments, each following its own normalized profile s(t) in [0, 1]
+// over `steps` periods (any type with eval(t, s, sdot, sddot)); rest at every waypoint.
+template <class Profile>
+JointTrajectory sampleSegments(const std::vector<VecX>& wp, const std::vector<std::pair<Profile, int>>& segs, int total,
+                               double dt) {
+  const int n = static_cast<int>(wp[0].size());
+  JointTrajectory out;
+  out.dt = dt;
+  out.q.resize(n, total);
+  out.qd.resize(n, total);
+  out.qdd.resize(n, total);
+  out.q.col(0) = wp[0];
+  out.qd.col(0).setZero();
+  out.qdd.col(0).setZero();
+  int k = 1;
+  for (size_t i = 0; i < segs.size(); ++i) {
+    const auto& [p, steps] = segs[i];
+    const VecX D = wp[i + 1] - wp[i];
+    for (int s = 1; s <= steps; ++s, ++k) {
+      double sv, sd, sdd;
+      p.eval(s * dt, sv, sd, sdd);
+      if (s == steps) sv = 1, sd = 0, sdd = 0;
+      out.q.col(k) = wp[i] + sv * D;
+      out.qd.col(k) = sd * D;
+      out.qdd.col(k) = sdd * D;
+    }
+  }
+  return out;
+}
+
 // Minimal T (and its ta) such that every joint j with displacement D_j stays within v_j and a_j:
 // peak velocity D/(T-ta) <= v and acceleration D/((T-ta) ta) <= a.
 Profile fastestProfile(const VecX& D, const VecX& v, const VecX& a) {
@@ -62,10 +92,7 @@ Profile fastestProfile(const VecX& D, const VecX& v, const VecX& a) {
 JointTrajectory trapezoidalTrajectory(const std::vector<VecX>& wp, const VecX& vmax, const VecX& amax,
                                       const LimitScaling& scale, double dt) {
   MM_DEMAND(!wp.empty() && dt > 0 && scale.velocity > 0 && scale.acceleration > 0);
-  const int n = static_cast<int>(wp[0].size());
   const VecX v = vmax * scale.velocity, a = amax * scale.acceleration;
-  JointTrajectory out;
-  out.dt = dt;
   std::vector<std::pair<Profile, int>> segs;
   int total = 1;
   for (size_t i = 0; i + 1 < wp.size(); ++i) {
@@ -80,26 +107,7 @@ JointTrajectory trapezoidalTrajectory(const std::vector<VecX>& wp, const VecX& v
     segs.push_back({p, steps});
     total += steps;
   }
-  out.q.resize(n, total);
-  out.qd.resize(n, total);
-  out.qdd.resize(n, total);
-  out.q.col(0) = wp[0];
-  out.qd.col(0).setZero();
-  out.qdd.col(0).setZero();
-  int k = 1;
-  for (size_t i = 0; i < segs.size(); ++i) {
-    const auto& [p, steps] = segs[i];
-    const VecX D = wp[i + 1] - wp[i];
-    for (int s = 1; s <= steps; ++s, ++k) {
-      double sv, sd, sdd;
-      p.eval(s * dt, sv, sd, sdd);
-      if (s == steps) sv = 1, sd = 0, sdd = 0;
-      out.q.col(k) = wp[i] + sv * D;
-      out.qd.col(k) = sd * D;
-      out.qdd.col(k) = sdd * D;
-    }
-  }
-  return out;
+  return sampleSegments(wp, segs, total, dt);
 }
 
 namespace {
@@ -173,28 +181,7 @@ JointTrajectory jerkLimitedTrajectory(const std::vector<VecX>& wp, const VecX& v
     segs.push_back({p, steps});
     total += steps;
   }
-  JointTrajectory out;
-  out.dt = dt;
-  out.q.resize(n, total);
-  out.qd.resize(n, total);
-  out.qdd.resize(n, total);
-  out.q.col(0) = wp[0];
-  out.qd.col(0).setZero();
-  out.qdd.col(0).setZero();
-  int col = 1;
-  for (size_t i = 0; i < segs.size(); ++i) {
-    const auto& [p, steps] = segs[i];
-    const VecX D = wp[i + 1] - wp[i];
-    for (int st = 1; st <= steps; ++st, ++col) {
-      double sv, sd, sdd;
-      p.eval(st * dt, sv, sd, sdd);
-      if (st == steps) sv = 1, sd = 0, sdd = 0;
-      out.q.col(col) = wp[i] + sv * D;
-      out.qd.col(col) = sd * D;
-      out.qdd.col(col) = sdd * D;
-    }
-  }
-  return out;
+  return sampleSegments(wp, segs, total, dt);
 }
 
 void differentiate(JointTrajectory& t) {
