@@ -40,6 +40,28 @@ class CollisionChecker {
   long checks_ = 0;
 };
 
+/// Base of the geometric checkers: counts the check and applies the joint limits (one rule for
+/// all), then asks the subclass about geometry.
+class GeometricChecker : public CollisionChecker {
+ public:
+  explicit GeometricChecker(const RobotModel& robot) : robot_(robot) {}
+  bool isValid(const VecX& q) final {
+    ++checks_;
+    if (!robot_.withinLimits(q)) {
+      last_ = "joint limits";
+      return false;
+    }
+    return collisionFree(q);
+  }
+  std::string lastCollision() const override { return last_; }
+
+ protected:
+  /// q is within the limits; true when it is collision-free (else set last_).
+  virtual bool collisionFree(const VecX& q) = 0;
+  const RobotModel& robot_;
+  std::string last_;
+};
+
 /// FCL checker. `padding` [m] inflates the robot's shapes against the world (not against itself).
 /// Self-collision skips pairs of links on the same or neighbouring frames and pairs that touch in
 /// the home configuration (as MoveIt's setup assistant's "adjacent" and "default" rules).

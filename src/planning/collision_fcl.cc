@@ -81,9 +81,9 @@ bool collide(const Body& a, const Pose& Ta, const Body& b, const Pose& Tb) {
   return res.isCollision();
 }
 
-class FclChecker final : public CollisionChecker {
+class FclChecker final : public GeometricChecker {
  public:
-  FclChecker(const RobotModel& robot, const PlanningScene& scene, double pad) : robot_(robot), scene_(scene) {
+  FclChecker(const RobotModel& robot, const PlanningScene& scene, double pad) : GeometricChecker(robot), scene_(scene) {
     for (const auto& s : robot.collisionShapes()) {
       padded_.push_back(robotShape(s, pad));
       bare_.push_back(robotShape(s, 0.0));
@@ -111,12 +111,7 @@ class FclChecker final : public CollisionChecker {
           if (bare_[i].link == la && bare_[j].link == lb) self_pairs_.push_back({static_cast<int>(i), static_cast<int>(j)});
   }
 
-  bool isValid(const VecX& q) override {
-    ++checks_;
-    if (!robot_.withinLimits(q)) {
-      last_ = "joint limits";
-      return false;
-    }
+  bool collisionFree(const VecX& q) override {
     robot_.linkPoses(q, scene_.finger_opening, T_);
     const auto& links = robot_.links();
     for (size_t i = 0; i < padded_.size(); ++i) {
@@ -146,17 +141,14 @@ class FclChecker final : public CollisionChecker {
     }
     return true;
   }
-  std::string lastCollision() const override { return last_; }
 
  private:
-  const RobotModel& robot_;
   PlanningScene scene_;
   std::vector<Body> padded_, bare_, world_;
   Body attached_;
   int hand_ = -1;
   std::vector<std::pair<int, int>> self_pairs_;
   std::vector<Pose> T_;
-  std::string last_;
 };
 
 }  // namespace

@@ -14,8 +14,6 @@
 // sphere is tested first (broadphase); the first contact ends the check. No allocation per check.
 #include <array>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 
 #include "core/error.h"
 #include "planning/collision.h"
@@ -99,10 +97,10 @@ double pointSegmentDistanceSq(const Vec3& c, const Vec3& a, const Vec3& b) {
   return (a + t * ab - c).squaredNorm();
 }
 
-class SphereChecker final : public CollisionChecker {
+class SphereChecker final : public GeometricChecker {
  public:
   SphereChecker(const RobotModel& robot, const PlanningScene& scene, double pad, bool confirm_with_fcl)
-      : robot_(robot), scene_(scene) {
+      : GeometricChecker(robot), scene_(scene) {
     const int nl = static_cast<int>(robot.links().size());
     world_.build(robot, nl, pad);
     self_.build(robot, nl, 0.0);
@@ -137,17 +135,9 @@ class SphereChecker final : public CollisionChecker {
     // as sphere index pairs.
     if (confirm_with_fcl) fcl_ = makeFclChecker(robot, scene, pad);
     self_links_ = selfCollisionLinkPairs(robot, scene.finger_opening);
-    if (std::getenv("MM_SPHERES_DEBUG"))
-      std::fprintf(stderr, "spheres: world %zu, self %zu, self link pairs %zu, boxes %zu\n", world_.r.size(), self_.r.size(),
-                   self_links_.size(), boxes_.size());
   }
 
-  bool isValid(const VecX& q) override {
-    ++checks_;
-    if (!robot_.withinLimits(q)) {
-      last_ = "joint limits";
-      return false;
-    }
+  bool collisionFree(const VecX& q) override {
     robot_.linkPoses(q, scene_.finger_opening, T_);
     ++stamp_;
     bool hit = worldHit() || heldHit() || selfHit();
@@ -157,7 +147,6 @@ class SphereChecker final : public CollisionChecker {
     }
     return !hit;
   }
-  std::string lastCollision() const override { return last_; }
 
  private:
   bool worldHit() {
@@ -335,7 +324,6 @@ class SphereChecker final : public CollisionChecker {
     }
   };
 
-  const RobotModel& robot_;
   PlanningScene scene_;
   Spheres world_, self_;
   std::vector<Vec3> held_local_;
@@ -347,7 +335,6 @@ class SphereChecker final : public CollisionChecker {
   int hand_ = -1;
   std::vector<Pose> T_;
   unsigned stamp_ = 0;
-  std::string last_;
 };
 
 }  // namespace
