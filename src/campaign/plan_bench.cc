@@ -19,7 +19,7 @@
 #include "planning/chomp.h"
 #include "planning/collision.h"
 #include "planning/planner.h"
-#include "planning/totg.h"
+#include "planning/time_parameterization.h"
 #include "planning/trajectory.h"
 #include "sim/scene_sampler.h"
 #include "sim/sim_world.h"
@@ -46,14 +46,51 @@ Obstacle boxOf(const ObjectState& o) {
   return b;
 }
 
+// Seeded obstacles that block the direct motions between home, bin and tray (scene frame: robot
+// base at the origin, bin around (0.5, -0.25), tray around (0.45, 0.3), table top at z = 0):
+// a thin divider wall between bin and tray, half the time an overhead bar, and two posts.
+std::vector<Obstacle> clutter(Rng& rng) {
+  std::vector<Obstacle> out;
+  Obstacle wall;
+  const double h = rng.uniform(0.15, 0.30);
+  wall.size = Vec3(0.25, 0.005, h / 2);
+  wall.T_world.translation() = Vec3(0.5, rng.uniform(0.0, 0.06), h / 2);
+  wall.name = "clutter_divider";
+  out.push_back(wall);
+  if (rng.uniform() < 0.5) {
+    Obstacle bar;
+    bar.size = Vec3(0.3, 0.02, 0.02);
+    bar.T_world.translation() = Vec3(0.5, rng.uniform(-0.1, 0.15), h + rng.uniform(0.25, 0.4));
+    bar.name = "clutter_bar";
+    out.push_back(bar);
+  }
+  for (int k = 0; k < 2; ++k) {
+    Obstacle post;
+    post.type = Obstacle::Type::kCylinder;
+    const double half = rng.uniform(0.2, 0.35);
+    post.size = Vec3(0.025, half, 0);
+    Vec3 p;
+    do {  // not inside the bin's or the tray's footprint
+      p = Vec3(rng.uniform(0.15, 0.8), rng.uniform(-0.55, 0.55), half);
+    } while ((std::abs(p.x() - 0.5) < 0.21 && std::abs(p.y() + 0.25) < 0.21) ||
+             (std::abs(p.x() - 0.45) < 0.16 && std::abs(p.y() - 0.3) < 0.16));
+    post.T_world.translation() = p;
+    post.name = "clutter_post_" + std::to_string(k);
+    out.push_back(post);
+  }
+  return out;
+}
+
 // Problems as the pick pipeline poses them, from seeded bin layouts (mock spawning: no physics).
-std::vector<Problem> makeProblems(const RobotModel& robot, SimWorld& world, int scenes, uint64_t seed, double padding) {
+std::vector<Problem> makeProblems(const RobotModel& robot, SimWorld& world, int scenes, uint64_t seed, double padding,
+                                  bool cluttered) {
   const auto [T_bin, half] = world.site("bin_region");
   const auto [T_place, place_half] = world.site("place_target");
-  const std::vector<Obstacle> statics = world.staticObstacles();
+  const std::vector<Obstacle> scene_statics = world.staticObstacles();
   auto ik = makeIkSolver("analytic", robot);
   std::vector<Problem> out;
   Rng rng(mixSeed(seed, 2024, 0));
+  Rng clutter_rng(mixSeed(seed, 2024, 1));
   SpawnOptions so;
   so.physics = false;
   const double preferred = yawOf(robot.fk(robot.home()).linear());
@@ -73,6 +110,19 @@ std::vector<Problem> makeProblems(const RobotModel& robot, SimWorld& world, int 
     std::vector<ObjectState> objs;
     for (int i : spawn.active) objs.push_back(world.object(i));
     const ObjectState target = objs.front();
+    std::vector<Obstacle> statics = scene_statics;
+    // Clutter is redrawn until it leaves the home configuration free.
+    bool clutter_ok = !cluttered;
+    for (int draw = 0; cluttered && !clutter_ok && draw < 100; ++draw) {
+      PlanningScene ps;
+      ps.obstacles = scene_statics;
+      for (const Obstacle& o : clutter(clutter_rng)) ps.obstacles.push_back(o);
+      if (makeFclChecker(robot, ps, padding)->isValid(robot.home())) {
+        statics = ps.obstacles;
+        clutter_ok = true;
+      }
+    }
+    if (!clutter_ok) continue;
     PlanningScene full;
     full.obstacles = statics;
     for (const auto& o : objs) full.obstacles.push_back(boxOf(o));
@@ -148,12 +198,14 @@ struct Run {
 };
 
 struct TpStats {
-  std::vector<double> duration, max_acc, rms_acc, max_jerk, rms_jerk;
-  long within = 0, n = 0, failed = 0;
+  std::vector<double> duration, max_acc, rms_acc, max_jerk, rms_jerk, compute_ms;
+  long within = 0, n = 0, failed = 0, interior = 0, stops = 0, backoffs = 0;
 };
 
-constexpr int kNumTps = 3;
-const char* kTps[kNumTps] = {"trapezoidal", "jerk_limited", "totg"};
+constexpr int kNumTps = 4;
+const char* kTps[kNumTps] = {"trapezoidal", "jerk_limited_stop", "jerk_limited", "totg"};
+// Methods whose jerk is bounded (the others step their acceleration).
+bool jerkBounded(int tp) { return tp == 1 || tp == 2; }
 
 }  // namespace
 
@@ -167,7 +219,7 @@ std::string runPlanBench(const PlanBenchOptions& o) {
       throw InputError("--planners " + p, "unknown planner");
   for (const auto& c : o.checkers) makeChecker(c, robot, PlanningScene{}, 0.0);  // InputError for a bad name
   const auto t_all = Clock::now();
-  const std::vector<Problem> problems = makeProblems(robot, *world, o.scenes, o.seed, o.padding);
+  const std::vector<Problem> problems = makeProblems(robot, *world, o.scenes, o.seed, o.padding, o.problems == "clutter");
   if (problems.empty()) throw InputError(o.scene, "no valid planning problem could be drawn from this scene");
 
   struct Combo {
@@ -222,10 +274,11 @@ std::string runPlanBench(const PlanBenchOptions& o) {
         }
         run.clearance = cl;
         for (int tp = 0; tp < kNumTps; ++tp) {
-          const JointTrajectory traj =
-              tp == 0 ? trapezoidalTrajectory(r.path, robot.vmax(), robot.amax(), scale, 0.002)
-              : tp == 1 ? jerkLimitedTrajectory(r.path, robot.vmax(), robot.amax(), robot.jmax(), scale, 0.002)
-                        : totgTrajectory(r.path, robot, scale, 0.002);
+          const auto t_tp = Clock::now();
+          const TimedPath timed = timeParameterize(kTps[tp], r.path, robot, scale, 0.002,
+                                                   [&](const VecX& q) { return chk->isValid(q); });
+          const double tp_ms = 1000 * std::chrono::duration<double>(Clock::now() - t_tp).count();
+          const JointTrajectory& traj = timed.trajectory;
           TpStats& s = c.tp[tp];
           ++s.n;
           if (traj.empty()) {
@@ -233,7 +286,11 @@ std::string runPlanBench(const PlanBenchOptions& o) {
             continue;
           }
           const LimitReport lim = checkLimits(traj, robot, 1e-6);
-          s.within += lim.ok && (tp == 0 || lim.max_jerk_ratio <= 1 + 1e-6);
+          s.within += lim.ok && (!jerkBounded(tp) || lim.max_jerk_ratio <= 1 + 1e-6);
+          s.compute_ms.push_back(tp_ms);
+          s.interior += timed.interior_waypoints;
+          s.stops += timed.stops;
+          s.backoffs += timed.backoffs;
           s.duration.push_back(traj.duration());
           s.max_acc.push_back(lim.max_acceleration_ratio);
           s.rms_acc.push_back(lim.rms_acceleration);
@@ -252,6 +309,7 @@ std::string runPlanBench(const PlanBenchOptions& o) {
   md << std::fixed;
   md << "Planning benchmark: `" << o.command_line << "`\n\n";
   md << problems.size() << " problems from " << o.scenes << " seeded bin scenes (seed " << o.seed
+     << (o.problems == "clutter" ? "; cluttered: a divider wall between bin and tray, half the time an overhead bar, two posts" : "")
      << "): home -> pre-grasp among the bin's objects, lift -> pre-place holding the object, retreat -> home. Padding "
      << std::setprecision(1) << o.padding * 1000 << " mm, time limit " << std::setprecision(1) << o.time_limit << " s per call, simplification "
      << (o.simplify ? "on" : "off") << ", optimizing planners stop at their first solution. " << cpuModel() << ", "
@@ -294,31 +352,37 @@ std::string runPlanBench(const PlanBenchOptions& o) {
       const TpStats& s = c.tp[tp];
       tps[kTps[tp]] = {{"duration_mean_s", moments(s.duration).mean}, {"max_acceleration_ratio", moments(s.max_acc).max},
                        {"rms_acceleration", moments(s.rms_acc).mean}, {"max_jerk_ratio", moments(s.max_jerk).max},
-                       {"rms_jerk", moments(s.rms_jerk).mean}, {"within_limits", s.within}, {"n", s.n}, {"failed", s.failed}};
+                       {"rms_jerk", moments(s.rms_jerk).mean}, {"within_limits", s.within}, {"n", s.n}, {"failed", s.failed},
+                       {"compute_ms_mean", moments(s.compute_ms).mean}, {"interior_waypoints", s.interior},
+                       {"stops", s.stops}, {"backoffs", s.backoffs}};
     }
     jc.push_back({{"planner", c.planner + (c.optimize ? "+chomp" : "")}, {"checker", c.checker}, {"success", double(ok) / c.runs.size()}, {"ci95", {lo, hi}},
                   {"plan_ms", {{"mean", mt.mean}, {"median", percentile(t, 0.5)}, {"p95", percentile(t, 0.95)}}},
                   {"simplify_ms_mean", ms.mean}, {"path_length_mean", ml.mean}, {"min_clearance_mm", mc.min},
                   {"checks_per_second", cps}, {"time_parameterizations", tps}, {"runs", runs}});
   }
-  md << "\nTime parameterizations of the same paths (velocity and acceleration scaled to 50% of the limits; "
+  md << "\nTime parameterizations of the same paths (velocity, acceleration and jerk scaled to 50% of the limits; "
         "jerk ratios against the Panda's jerk limits, read from the 2 ms samples; the trapezoid's and TOTG's acceleration "
-        "steps make their true jerk unbounded; TOTG blends corners within 0.05 rad):\n\n";
-  md << "| planner | checker | method | duration s mean | max acc / limit | RMS acc rad/s² | max jerk / limit | RMS jerk rad/s³ | within limits |\n";
-  md << "|---|---|---|---|---|---|---|---|---|\n";
+        "steps make their true jerk unbounded, so only the jerk-limited methods are held to the jerk limits; TOTG blends "
+        "corners within 0.05 rad; samples off the planned segments are checked with the row's checker, and the method "
+        "backs off where one is invalid; stops: interior waypoints where the robot rests):\n\n";
+  md << "| planner | checker | method | duration s mean | max acc / limit | RMS acc rad/s² | max jerk / limit | RMS jerk rad/s³ | "
+        "within limits | stops / waypoints | back-offs | compute ms mean |\n";
+  md << "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const Combo& c : combos)
     for (int tp = 0; tp < kNumTps; ++tp) {
       const TpStats& s = c.tp[tp];
       md << "| " << c.planner << (c.optimize ? "+chomp" : "") << " | " << c.checker << " | " << kTps[tp] << " | " << std::setprecision(3) << moments(s.duration).mean
          << " | " << moments(s.max_acc).max << " | " << std::setprecision(2) << moments(s.rms_acc).mean << " | "
          << std::setprecision(1) << moments(s.max_jerk).max << " | " << moments(s.rms_jerk).mean << " | " << s.within << "/" << s.n
-         << " |\n";
+         << " | " << s.stops << "/" << s.interior << " | " << s.backoffs << " | " << std::setprecision(3) << moments(s.compute_ms).mean << " |\n";
     }
   fs::create_directories(o.out_dir);
   json j;
   j["command"] = o.command_line;
   j["seed"] = o.seed;
   j["problems"] = problems.size();
+  j["problem_set"] = o.problems;
   j["settings"] = {{"padding_m", o.padding}, {"time_limit_s", o.time_limit}, {"simplify", o.simplify}, {"scaling", 0.5}};
   j["machine"] = {{"cpu", cpuModel()}, {"cores", std::thread::hardware_concurrency()}};
   j["combinations"] = jc;
@@ -353,20 +417,20 @@ std::string runPlanBench(const PlanBenchOptions& o) {
     log << "2 common properties\n";
     log << "collision checker = " << c.checker << "\n";
     log << "simplify = " << (o.simplify ? 1 : 0) << "\n";
-    log << "12 properties for each run\n";
+    log << 9 + kNumTps << " properties for each run\n";
     log << "time REAL\nsolved BOOLEAN\nsimplification time REAL\nsolution length REAL\nsimplified solution length REAL\n"
            "solution segments INTEGER\nsimplified solution segments INTEGER\ncollision checks INTEGER\n"
-           "simplified solution clearance REAL\ntrajectory duration trapezoidal REAL\ntrajectory duration jerk_limited REAL\n"
-           "trajectory duration totg REAL\n";
+           "simplified solution clearance REAL\n";
+    for (int tp = 0; tp < kNumTps; ++tp) log << "trajectory duration " << kTps[tp] << " REAL\n";
     log << c.runs.size() << " runs\n";
     for (const Run& r : c.runs) {
       auto num = [&](double v) { return r.solved ? std::to_string(v) : std::string(""); };
       log << r.time << "; " << (r.solved ? 1 : 0) << "; " << num(r.simplify) << "; " << num(r.raw_length) << "; "
           << num(r.length) << "; " << (r.solved ? std::to_string(r.raw_segments) : "") << "; "
-          << (r.solved ? std::to_string(r.segments) : "") << "; " << r.checks << "; " << num(r.clearance) << "; "
-          << (r.solved ? std::to_string(r.duration.at("trapezoidal")) : "") << "; "
-          << (r.solved ? std::to_string(r.duration.at("jerk_limited")) : "") << "; "
-          << (r.solved && r.duration.count("totg") ? std::to_string(r.duration.at("totg")) : "") << "; \n";
+          << (r.solved ? std::to_string(r.segments) : "") << "; " << r.checks << "; " << num(r.clearance) << "; ";
+      for (int tp = 0; tp < kNumTps; ++tp)
+        log << (r.solved && r.duration.count(kTps[tp]) ? std::to_string(r.duration.at(kTps[tp])) : "") << "; ";
+      log << "\n";
     }
     log << ".\n";
   }

@@ -1,6 +1,8 @@
 // `minimanip plan-bench`: planners x collision checkers x time parameterizations on the same
 // planning problems from the bin scene, in one run. Problems: home -> pre-grasp (the bin's objects
-// as obstacles), lift -> pre-place (the object held), retreat -> home; from seeded scenes.
+// as obstacles), lift -> pre-place (the object held), retreat -> home; from seeded scenes. The
+// "clutter" set adds seeded obstacles to each scene (a divider between bin and tray, an overhead
+// bar, posts) so that the direct motion is blocked and the planners have work to do.
 // Outputs: plan_bench.json, plan_bench.md and plan_bench.log (OMPL's benchmark log format, which
 // ompl_benchmark_statistics.py turns into the database Planner Arena reads).
 #pragma once
@@ -13,6 +15,7 @@ struct PlanBenchOptions {
   std::string robot = "robots/panda/panda.yaml";
   std::string scene = "scenes/bin_table.xml";
   int scenes = 20;                        ///< seeded bin layouts; 3 problems each
+  std::string problems = "bin";           ///< "bin" or "clutter"
   uint64_t seed = 1;
   double time_limit = 5.0;                ///< [s] per planning call
   double padding = 0.01;                  ///< [m]

@@ -23,7 +23,8 @@ const char* kUsage =
     "                     [--sets random,bin,singular,limits] [--tip tcp|flange] [--distinct N] [--out DIR]\n"
     "                                every IK solver on the same poses and seeds\n"
     "  minimanip plan-bench [--scenes 20] [--seed S] [--planners a,b] [--checkers spheres,spheres+fcl,fcl]\n"
-    "                       [--time-limit 5] [--padding 0.01] [--no-simplify] [--optimizer chomp] [--out DIR]\n"
+    "                       [--problems bin|clutter] [--time-limit 5] [--padding 0.01] [--no-simplify]\n"
+    "                       [--optimizer chomp] [--out DIR]\n"
     "                                planners x checkers x time parameterizations on bin-scene problems\n"
     "  minimanip config-doc          print every experiment key as a Markdown table\n"
     "  minimanip help\n";
@@ -144,7 +145,10 @@ int planBench(const std::vector<std::string>& args, const std::string& command_l
       if (!end || *end || !(o.padding >= 0 && o.padding <= 0.1)) throw mm::InputError(a, "expected a padding in [0, 0.1] m, got '" + v + "'");
     } else if (a == "--no-simplify") o.simplify = false;
     else if (a == "--optimizer") o.optimizer = value();
-    else if (a == "--robot") o.robot = value();
+    else if (a == "--problems") {
+      o.problems = value();
+      if (o.problems != "bin" && o.problems != "clutter") throw mm::InputError(a, "expected bin or clutter, got '" + o.problems + "'");
+    } else if (a == "--robot") o.robot = value();
     else if (a == "--scene") o.scene = value();
     else if (a == "--out") o.out_dir = value();
     else throw mm::InputError(a, std::string("unknown option\n") + kUsage);

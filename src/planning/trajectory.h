@@ -21,13 +21,6 @@ struct LimitScaling {
 JointTrajectory trapezoidalTrajectory(const std::vector<VecX>& waypoints, const VecX& vmax, const VecX& amax,
                                       const LimitScaling& scale, double dt);
 
-/// Jerk-limited time parameterization: per segment, all joints follow one normalized double-S
-/// (7-phase, jerk-limited) profile, the shortest one within the scaled velocity, acceleration and
-/// jerk limits of every joint (Biagiotti & Melchiorri, "Trajectory Planning for Automatic Machines
-/// and Robots", 2008, sec. 3.4); rest at each waypoint. `jmax` [rad/s^3] is scaled like `amax`.
-JointTrajectory jerkLimitedTrajectory(const std::vector<VecX>& waypoints, const VecX& vmax, const VecX& amax,
-                                      const VecX& jmax, const LimitScaling& scale, double dt);
-
 /// Fills qd and qdd of a trajectory whose q is known, by central differences.
 void differentiate(JointTrajectory& traj);
 

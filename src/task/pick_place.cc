@@ -7,7 +7,7 @@
 #include "core/rng.h"
 #include "sim/controllers.h"
 #include "planning/chomp.h"
-#include "planning/totg.h"
+#include "planning/time_parameterization.h"
 #include "sim/hardware.h"
 
 namespace mm {
@@ -144,18 +144,13 @@ class Trial {
     if (o_.optimizer != "chomp" || !r.ok) return;
     r.path = chompSmooth(robot_, scene, checker, r.path).path;
   }
-  // `checker` is the one that validated `path`: TOTG's blends leave the path by up to 0.05 rad, so
-  // its samples are checked, and a collision falls back to the exact path (jerk-limited).
+  // `checker` is the one that validated `path`: it also judges the samples of methods that leave
+  // the straight segments (jerk_limited through waypoints, TOTG's blends), which back off where one
+  // is invalid.
   JointTrajectory timeParameterize(const std::vector<VecX>& path, CollisionChecker& checker) const {
-    if (o_.time_parameterization == "trapezoidal")
-      return trapezoidalTrajectory(path, robot_.vmax(), robot_.amax(), o_.scaling, hw_.period());
-    if (o_.time_parameterization == "totg") {
-      const JointTrajectory t = totgTrajectory(path, robot_, o_.scaling, hw_.period());
-      bool ok = !t.empty();
-      for (int k = 0; ok && k < t.size(); k += 5) ok = checker.isValid(t.q.col(k));
-      if (ok) return t;
-    }
-    return jerkLimitedTrajectory(path, robot_.vmax(), robot_.amax(), robot_.jmax(), o_.scaling, hw_.period());
+    return mm::timeParameterize(o_.time_parameterization, path, robot_, o_.scaling, hw_.period(),
+                                [&](const VecX& q) { return checker.isValid(q); })
+        .trajectory;
   }
 
   // ---- pick -----------------------------------------------------------------------------------
@@ -255,6 +250,7 @@ class Trial {
     if (!connect.ok) return fail("connect_pregrasp", connect.reason);
     const double dt = hw_.period();
     const JointTrajectory t_connect = timeParameterize(connect.path, *full);
+    if (t_connect.empty()) return fail("connect_pregrasp", "no time parameterization within the limits");
     const JointTrajectory t_approach = cartesianTrajectory(robot_, approach_, ikNear(), o_.scaling, o_.cartesian, dt);
     const JointTrajectory t_lift = cartesianTrajectory(robot_, lift_, ikNear(), o_.scaling, o_.cartesian, dt);
     if (t_approach.empty() || t_lift.empty())
@@ -360,6 +356,7 @@ class Trial {
     if (!connect.ok) return fail("connect_place", connect.reason);
     const double dt = hw_.period();
     const JointTrajectory t_connect = timeParameterize(connect.path, *carrying);
+    if (t_connect.empty()) return fail("connect_place", "no time parameterization within the limits");
     const JointTrajectory t_descend = cartesianTrajectory(robot_, descend_, ikNear(), o_.scaling, o_.cartesian, dt);
     const JointTrajectory t_retreat = cartesianTrajectory(robot_, retreat_, ikNear(), o_.scaling, o_.cartesian, dt);
     if (t_descend.empty() || t_retreat.empty())
@@ -396,6 +393,7 @@ class Trial {
     out_.return_home_time += home_compute_;
     if (!r.ok) return fail("plan_home", r.reason);
     const JointTrajectory t = timeParameterize(r.path, *checker);
+    if (t.empty()) return fail("plan_home", "no time parameterization within the limits");
     return execute("return_home", t, robot_.spec().gripper.travel, o_.grasp_force, false, out_.return_home_time);
   }
 

@@ -23,7 +23,7 @@ struct TaskOptions {
   PlannerOptions planner;
   double padding = 0.01;                 ///< [m] robot inflation against the world when planning
   std::string checker = "spheres+fcl";   ///< collision checker: "spheres", "spheres+fcl" or "fcl"
-  std::string time_parameterization = "jerk_limited";  ///< joint paths: "trapezoidal", "jerk_limited" or "totg"
+  std::string time_parameterization = "jerk_limited";  ///< joint paths: a name of timeParameterizationNames()
   std::string optimizer = "none";        ///< "none" or "chomp" after the planner
   LimitScaling scaling{0.5, 0.5};        ///< fraction of velocity / acceleration limits
   CartesianOptions cartesian;

@@ -110,7 +110,44 @@ TEST(PlanBench, SmallRunWritesResultsAndAParsableOmplLog) {
   for (const auto& c : j["combinations"]) {
     EXPECT_EQ(c["success"], 1.0) << c["planner"] << "+" << c["checker"];
     for (const auto& tp : c["time_parameterizations"]) EXPECT_EQ(tp["within_limits"], tp["n"]);
+    // Every method ran on every solved problem; passing through waypoints never loses to stopping
+    // at them by more than the rounding to periods.
+    for (const auto& r : c["runs"]) {
+      ASSERT_EQ(r["durations_s"].size(), 4u);
+      EXPECT_LE(r["durations_s"]["jerk_limited"].get<double>(),
+                r["durations_s"]["jerk_limited_stop"].get<double>() + 0.006 * (1 + r["length"].get<double>()));
+    }
   }
+  fs::remove_all(out);
+}
+
+}  // namespace
+}  // namespace mm
+
+namespace mm {
+namespace {
+
+// The cluttered set blocks direct motions: some simplified paths need intermediate waypoints, and
+// the through-waypoint jerk-limited trajectories then pass some of them at speed.
+TEST(PlanBench, ClutteredProblemsNeedDetours) {
+  const fs::path out = fs::temp_directory_path() / ("mm_planbench_clutter_" + std::to_string(getpid()));
+  PlanBenchOptions o;
+  o.scenes = 10;
+  o.seed = 5;
+  o.problems = "clutter";
+  o.planners = {"RRTConnect"};
+  o.checkers = {"spheres+fcl"};
+  o.out_dir = out.string();
+  o.command_line = "plan_bench_test";
+  runPlanBench(o);
+  const auto j = nlohmann::json::parse(std::ifstream(out / "plan_bench.json"));
+  EXPECT_EQ(j["problem_set"], "clutter");
+  const auto& c = j["combinations"][0];
+  EXPECT_EQ(c["success"], 1.0);
+  const auto& jl = c["time_parameterizations"]["jerk_limited"];
+  EXPECT_GT(jl["interior_waypoints"].get<int>(), 0);
+  EXPECT_LT(jl["stops"].get<int>(), jl["interior_waypoints"].get<int>());
+  EXPECT_EQ(jl["within_limits"], jl["n"]);
   fs::remove_all(out);
 }
 

@@ -5,6 +5,7 @@
 #include "core/rng.h"
 #include "kinematics/ik.h"
 #include "planning/cartesian.h"
+#include "planning/jerk.h"
 
 namespace mm {
 namespace {
