@@ -43,6 +43,17 @@ TimedPath timeParameterize(const std::string& method, const std::vector<VecX>& p
   } else {
     throw InputError("time parameterization " + method, "expected trapezoidal, jerk_limited_stop, jerk_limited or totg");
   }
+  if (out.trajectory.empty()) {
+    out.failure = method + ": no trajectory within the limits";
+    return out;
+  }
+  out.limits = checkLimits(out.trajectory, robot, 1e-6);
+  const bool jerk_bounded = method == "jerk_limited" || method == "jerk_limited_stop";
+  if (!out.limits.ok || (jerk_bounded && out.limits.max_jerk_ratio > 1 + 1e-6)) {
+    out.failure = method + ": output oversteps the limits (" +
+                  (out.limits.worst.empty() ? "jerk ratio " + std::to_string(out.limits.max_jerk_ratio) : out.limits.worst) + ")";
+    out.trajectory = JointTrajectory{};
+  }
   return out;
 }
 

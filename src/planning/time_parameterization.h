@@ -22,10 +22,14 @@ struct TimedPath {
   int interior_waypoints = 0;
   int stops = 0;       ///< interior waypoints where the robot rests
   int backoffs = 0;    ///< times an invalid sample made the method back off (slower or closer to the path)
+  LimitReport limits;  ///< the output checked against the robot's (unscaled) limits
+  std::string failure; ///< why the trajectory is empty, if it is
 };
 
 /// `valid` (may be empty) is asked about samples that leave the straight segments. TOTG backs off
 /// to smaller blends (0.05, 0.01 rad, then none); jerk_limited to lower speeds at the waypoints.
+/// Every output is checked against the robot's position, velocity and acceleration limits, and
+/// the jerk-limited ones against its jerk limits; an output that fails is not returned.
 TimedPath timeParameterize(const std::string& method, const std::vector<VecX>& path, const RobotModel& robot,
                            const LimitScaling& scale, double dt, const std::function<bool(const VecX&)>& valid = {});
 

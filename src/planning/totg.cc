@@ -137,7 +137,10 @@ double maxX(const VecX& dq, const VecX& ddq, const VecX& v, const VecX& a) {
   return x;
 }
 
-JointTrajectory integrate(const std::vector<Segment>& path, int n, const VecX& v, const VecX& a, double dt, double h) {
+// `margin[k]` scales the limits on path segment k (1: the limits themselves). `sample_seg` gets the
+// path segment of every sample.
+JointTrajectory integrate(const std::vector<Segment>& path, int n, const VecX& v, const VecX& a, double dt, double h,
+                          const std::vector<double>& margin, std::vector<int>& sample_seg) {
   // Grid: segment boundaries are grid points (the profile may need to change there).
   std::vector<double> s_grid;
   std::vector<int> seg_of;
@@ -164,7 +167,7 @@ JointTrajectory integrate(const std::vector<Segment>& path, int n, const VecX& v
     const int sg = seg_of[k];
     path[sg].eval(s_grid[k] - seg_start[sg], q, dq, ddq);
     DQ[k] = dq, DDQ[k] = ddq;
-    cap[k] = maxX(dq, ddq, v, a);
+    cap[k] = maxX(dq, ddq, v * margin[sg], a * margin[sg]);
   }
   // A corner kept sharp (no blend) is a stop: the direction jumps there.
   for (size_t k = 1; k + 1 < N; ++k)
@@ -175,12 +178,14 @@ JointTrajectory integrate(const std::vector<Segment>& path, int n, const VecX& v
   std::vector<std::pair<double, double>> cd;
   for (size_t k = 0; k + 1 < N; ++k) {
     const double hs = s_grid[k + 1] - s_grid[k];
-    x[k + 1] = forwardStep(x[k], DQ[k], DDQ[k], DQ[k + 1], DDQ[k + 1], hs, a, cap[k + 1], cd);
+    const VecX ak = a * std::min(margin[seg_of[k]], margin[seg_of[k + 1]]);
+    x[k + 1] = forwardStep(x[k], DQ[k], DDQ[k], DQ[k + 1], DDQ[k + 1], hs, ak, cap[k + 1], cd);
   }
   x[N - 1] = 0;
   for (size_t k = N - 1; k-- > 0;) {
     const double hs = s_grid[k + 1] - s_grid[k];
-    x[k] = std::min(x[k], backwardStep(x[k + 1], DQ[k], DDQ[k], DQ[k + 1], DDQ[k + 1], hs, a, cap[k], cd));
+    const VecX ak = a * std::min(margin[seg_of[k]], margin[seg_of[k + 1]]);
+    x[k] = std::min(x[k], backwardStep(x[k + 1], DQ[k], DDQ[k], DQ[k + 1], DDQ[k + 1], hs, ak, cap[k], cd));
   }
   // Time at each grid point (constant sddot per cell), then samples every dt.
   std::vector<double> t(N, 0.0);
@@ -195,6 +200,7 @@ JointTrajectory integrate(const std::vector<Segment>& path, int n, const VecX& v
   out.q.resize(n, steps + 1);
   out.qd.resize(n, steps + 1);
   out.qdd.resize(n, steps + 1);
+  sample_seg.assign(steps + 1, 0);
   size_t k = 0;
   for (int st = 0; st <= steps; ++st) {
     const double tt = std::min(st * dt, t[N - 1]);
@@ -211,6 +217,7 @@ JointTrajectory integrate(const std::vector<Segment>& path, int n, const VecX& v
     int sg = seg_of[k];
     while (sg + 1 < static_cast<int>(path.size()) && s > seg_start[sg + 1]) ++sg;
     path[sg].eval(std::clamp(s - seg_start[sg], 0.0, path[sg].length), q, dq, ddq);
+    sample_seg[st] = sg;
     out.q.col(st) = q;
     out.qd.col(st) = dq * sd;
     out.qdd.col(st) = dq * (st == steps ? 0.0 : acc) + ddq * sd * sd;
@@ -236,21 +243,33 @@ JointTrajectory totgTrajectory(const std::vector<VecX>& wp, const RobotModel& ro
     return t;
   }
   const std::vector<Segment> path = blendedPath(w, o.max_deviation);
-  // Discretization and sampling can overstep the limits slightly: verify, tighten, retry.
-  double margin = 1.0;
-  for (int attempt = 0; attempt < 6; ++attempt) {
-    const VecX v = robot.vmax() * scale.velocity * margin, a = robot.amax() * scale.acceleration * margin;
-    JointTrajectory t = integrate(path, n, v, a, dt, o.grid);
+  // Discretization and sampling can overstep the limits slightly: verify, and tighten the limits
+  // on the path segments where a sample oversteps them (and their neighbours), then retry.
+  std::vector<double> margin(path.size(), 1.0);
+  std::vector<int> sample_seg;
+  const VecX v = robot.vmax() * scale.velocity, a = robot.amax() * scale.acceleration;
+  for (int attempt = 0; attempt < 12; ++attempt) {
+    JointTrajectory t = integrate(path, n, v, a, dt, o.grid, margin, sample_seg);
+    for (int k = 0; k < t.size(); ++k)
+      if (!robot.withinLimits(t.q.col(k))) return {};  // a blend leaves the joint range: tightening would not help
     // Measured both ways the controller sees them: the analytic values it is fed and the finite
     // differences of the positions it tracks.
     JointTrajectory fd = t;
     differentiate(fd);
-    const LimitReport ra = checkLimits(t, robot, 0.0), rf = checkLimits(fd, robot, 0.0);
-    const double worst = std::max({ra.max_velocity_ratio / scale.velocity, ra.max_acceleration_ratio / scale.acceleration,
-                                   rf.max_velocity_ratio / scale.velocity, rf.max_acceleration_ratio / scale.acceleration});
-    if (ra.positions_ok && worst <= 1.0 + 1e-6) return t;
-    if (!ra.positions_ok) return {};  // a blend leaves the joint range: tightening would not help
-    margin *= std::min(0.995, 1.0 / worst);
+    std::vector<double> worst(path.size(), 0.0);
+    for (int k = 0; k < t.size(); ++k) {
+      const double r = std::max({(t.qd.col(k).cwiseAbs().cwiseQuotient(v)).maxCoeff(), (t.qdd.col(k).cwiseAbs().cwiseQuotient(a)).maxCoeff(),
+                                 (fd.qd.col(k).cwiseAbs().cwiseQuotient(v)).maxCoeff(), (fd.qdd.col(k).cwiseAbs().cwiseQuotient(a)).maxCoeff()});
+      for (int nb = std::max(0, k - 1); nb <= std::min(t.size() - 1, k + 1); ++nb)
+        worst[sample_seg[nb]] = std::max(worst[sample_seg[nb]], r);
+    }
+    bool ok = true;
+    for (size_t sg = 0; sg < path.size(); ++sg)
+      if (worst[sg] > 1.0 + 1e-6) {
+        ok = false;
+        margin[sg] *= std::min(0.995, 1.0 / worst[sg]);
+      }
+    if (ok) return t;
   }
   return {};
 }

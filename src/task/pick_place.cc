@@ -147,10 +147,11 @@ class Trial {
   // `checker` is the one that validated `path`: it also judges the samples of methods that leave
   // the straight segments (jerk_limited through waypoints, TOTG's blends), which back off where one
   // is invalid.
-  JointTrajectory timeParameterize(const std::vector<VecX>& path, CollisionChecker& checker) const {
-    return mm::timeParameterize(o_.time_parameterization, path, robot_, o_.scaling, hw_.period(),
-                                [&](const VecX& q) { return checker.isValid(q); })
-        .trajectory;
+  JointTrajectory timeParameterize(const std::vector<VecX>& path, CollisionChecker& checker, std::string& failure) const {
+    TimedPath t = mm::timeParameterize(o_.time_parameterization, path, robot_, o_.scaling, hw_.period(),
+                                       [&](const VecX& q) { return checker.isValid(q); });
+    failure = t.failure;
+    return std::move(t.trajectory);
   }
 
   // ---- pick -----------------------------------------------------------------------------------
@@ -249,8 +250,9 @@ class Trial {
     out_.plan_pick_time = st->compute_seconds = since(t_plan);
     if (!connect.ok) return fail("connect_pregrasp", connect.reason);
     const double dt = hw_.period();
-    const JointTrajectory t_connect = timeParameterize(connect.path, *full);
-    if (t_connect.empty()) return fail("connect_pregrasp", "no time parameterization within the limits");
+    std::string tp_failure;
+    const JointTrajectory t_connect = timeParameterize(connect.path, *full, tp_failure);
+    if (t_connect.empty()) return fail("connect_pregrasp", tp_failure);
     const JointTrajectory t_approach = cartesianTrajectory(robot_, approach_, ikNear(), o_.scaling, o_.cartesian, dt);
     const JointTrajectory t_lift = cartesianTrajectory(robot_, lift_, ikNear(), o_.scaling, o_.cartesian, dt);
     if (t_approach.empty() || t_lift.empty())
@@ -355,8 +357,9 @@ class Trial {
     out_.plan_place_time = st->compute_seconds = since(t_plan);
     if (!connect.ok) return fail("connect_place", connect.reason);
     const double dt = hw_.period();
-    const JointTrajectory t_connect = timeParameterize(connect.path, *carrying);
-    if (t_connect.empty()) return fail("connect_place", "no time parameterization within the limits");
+    std::string tp_failure;
+    const JointTrajectory t_connect = timeParameterize(connect.path, *carrying, tp_failure);
+    if (t_connect.empty()) return fail("connect_place", tp_failure);
     const JointTrajectory t_descend = cartesianTrajectory(robot_, descend_, ikNear(), o_.scaling, o_.cartesian, dt);
     const JointTrajectory t_retreat = cartesianTrajectory(robot_, retreat_, ikNear(), o_.scaling, o_.cartesian, dt);
     if (t_descend.empty() || t_retreat.empty())
@@ -392,8 +395,9 @@ class Trial {
     st.compute_seconds = home_compute_ = since(t_plan);
     out_.return_home_time += home_compute_;
     if (!r.ok) return fail("plan_home", r.reason);
-    const JointTrajectory t = timeParameterize(r.path, *checker);
-    if (t.empty()) return fail("plan_home", "no time parameterization within the limits");
+    std::string tp_failure;
+    const JointTrajectory t = timeParameterize(r.path, *checker, tp_failure);
+    if (t.empty()) return fail("plan_home", tp_failure);
     return execute("return_home", t, robot_.spec().gripper.travel, o_.grasp_force, false, out_.return_home_time);
   }
 
