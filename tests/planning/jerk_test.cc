@@ -14,15 +14,15 @@ const RobotModel& panda() {
   return robot;
 }
 
-// Checks one joint's profile: it lasts T, ends at (pf, vf, 0), and stays within V, A, J.
-void expectProfile(const JerkProfile& p, double pf, double vf, double V, double A, double J, double T,
+// Checks one joint's profile: it lasts T, ends at (pf, vf, af), and stays within V, A, J.
+void expectProfile(const JerkProfile& p, double pf, double vf, double af, double V, double A, double J, double T,
                    const std::string& what) {
   EXPECT_NEAR(p.totalDuration(), T, 1e-9 * std::max(1.0, T)) << what;
   double x, v, a;
   p.eval(p.totalDuration(), x, v, a);
   EXPECT_NEAR(x, pf, 1e-8) << what;
   EXPECT_NEAR(v, vf, 1e-8) << what;
-  EXPECT_NEAR(a, 0, 1e-6 * A) << what;
+  EXPECT_NEAR(a, af, 1e-6 * A) << what;
   for (int k = 0; k < p.phases; ++k) EXPECT_LE(std::abs(p.jerk[k]), J * (1 + 1e-12)) << what;
   for (int i = 0; i <= 400; ++i) {
     p.eval(T * i / 400, x, v, a);
@@ -77,7 +77,7 @@ TEST(JerkProfile, ProfilesOfPrescribedDurationReachTheTargetWithinLimits) {
     const std::string what = "trial " + std::to_string(trial);
     JerkProfile p;
     ASSERT_TRUE(jerkProfileForDuration(p0, p0 + d, v0, vf, V, A, J, Tmin * (1 + 1e-9) + 1e-12, p)) << what << " Tmin " << Tmin;
-    expectProfile(p, p0 + d, vf, V, A, J, Tmin * (1 + 1e-9) + 1e-12, what);
+    expectProfile(p, p0 + d, vf, 0, V, A, J, Tmin * (1 + 1e-9) + 1e-12, what);
     if (Tmin > 1e-3) {
       EXPECT_FALSE(jerkProfileForDuration(p0, p0 + d, v0, vf, V, A, J, Tmin * (1 - 1e-4), p)) << what;
     }
@@ -85,13 +85,55 @@ TEST(JerkProfile, ProfilesOfPrescribedDurationReachTheTargetWithinLimits) {
       ++longer;
       if (jerkProfileForDuration(p0, p0 + d, v0, vf, V, A, J, Tmin * k + 0.01, p)) {
         ++longer_found;
-        expectProfile(p, p0 + d, vf, V, A, J, Tmin * k + 0.01, what + " x" + std::to_string(k));
+        expectProfile(p, p0 + d, vf, 0, V, A, J, Tmin * k + 0.01, what + " x" + std::to_string(k));
       }
     }
   }
   // Blocked durations exist (e.g. moving fast, a short distance, then long: it must turn back
   // twice), but they are rare.
   EXPECT_GE(longer_found, 0.95 * longer);
+}
+
+// The same with accelerations at both ends (feasible states: |a| <= A, |v| + a^2 / 2J <= V), and
+// the limits of the Panda's kind (J / A of 100 to 1000), seed 45.
+TEST(JerkProfile, NonzeroEndAccelerations) {
+  Rng rng(45);
+  int longer = 0, longer_found = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    const double V = rng.uniform(0.5, 2.5), A = rng.uniform(1, 15), J = A * rng.uniform(2, 1000);
+    auto state = [&](double& v, double& a) {
+      a = rng.uniform(-A, A);
+      const double room = V - a * a / (2 * J);
+      if (room > 0) {
+        v = rng.uniform(-room, room);
+      } else {
+        v = 0, a = 0;
+      }
+    };
+    double v0, a0, vf, af;
+    state(v0, a0), state(vf, af);
+    const double p0 = rng.uniform(-1, 1), d = rng.uniform(-2, 2);
+    const double Tmin = jerkMinTime(d, v0, a0, vf, af, V, A, J);
+    ASSERT_TRUE(std::isfinite(Tmin)) << trial;
+    const std::string what = "trial " + std::to_string(trial);
+    JerkProfile p;
+    const double T = Tmin * (1 + 1e-9) + 1e-12;
+    ASSERT_TRUE(jerkProfileForDuration(p0, p0 + d, v0, a0, vf, af, V, A, J, T, p)) << what << " Tmin " << Tmin;
+    expectProfile(p, p0 + d, vf, af, V, A, J, T, what);
+    if (Tmin > 1e-3) {
+      EXPECT_FALSE(jerkProfileForDuration(p0, p0 + d, v0, a0, vf, af, V, A, J, Tmin * (1 - 1e-4), p)) << what;
+    }
+    for (double k : {1.05, 1.5, 3.0}) {
+      ++longer;
+      if (jerkProfileForDuration(p0, p0 + d, v0, a0, vf, af, V, A, J, Tmin * k + 0.01, p)) {
+        ++longer_found;
+        expectProfile(p, p0 + d, vf, af, V, A, J, Tmin * k + 0.01, what + " x" + std::to_string(k));
+      }
+    }
+  }
+  EXPECT_GE(longer_found, 0.95 * longer);
+  // An infeasible state is refused, not approximated.
+  EXPECT_FALSE(std::isfinite(jerkMinTime(1, 1.0, 2.0, 0, 0, 1.0, 5, 50)));
 }
 
 double distanceToPolyline(const VecX& q, const std::vector<VecX>& wp) {
