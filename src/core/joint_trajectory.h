@@ -12,6 +12,8 @@ struct JointTrajectory {
   int size() const { return static_cast<int>(q.cols()); }
   double duration() const { return size() > 0 ? (size() - 1) * dt : 0.0; }
   bool empty() const { return size() == 0; }
+  /// `samples` samples every dt, the first at rest at q0, the others to be filled.
+  static JointTrajectory startingAt(const Eigen::VectorXd& q0, int samples, double dt);
   /// Appends `other` (its first sample must equal our last; it is dropped).
   void append(const JointTrajectory& other);
 };

@@ -369,17 +369,9 @@ void sampleSegment(const Segment& s, const VecX& qf, const WpState& sf, double d
 // The trajectory of consecutive segments from rest at wp[0]; state(i) is the state at wp[i].
 template <class State>
 JointTrajectory assemble(const std::vector<VecX>& wp, const std::vector<Segment>& seg, const State& state, double dt) {
-  const int n = static_cast<int>(wp[0].size());
   int total = 1;
   for (const Segment& s : seg) total += s.steps;
-  JointTrajectory out;
-  out.dt = dt;
-  out.q.resize(n, total);
-  out.qd.resize(n, total);
-  out.qdd.resize(n, total);
-  out.q.col(0) = wp[0];
-  out.qd.col(0).setZero();
-  out.qdd.col(0).setZero();
+  JointTrajectory out = JointTrajectory::startingAt(wp[0], total, dt);
   int k = 0;
   for (size_t s = 0; s < seg.size(); ++s) {
     sampleSegment(seg[s], wp[s + 1], state(static_cast<int>(s) + 1), dt, out, k);

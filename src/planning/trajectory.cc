@@ -33,15 +33,7 @@ struct Profile {
 template <class Profile>
 JointTrajectory sampleSegments(const std::vector<VecX>& wp, const std::vector<std::pair<Profile, int>>& segs, int total,
                                double dt) {
-  const int n = static_cast<int>(wp[0].size());
-  JointTrajectory out;
-  out.dt = dt;
-  out.q.resize(n, total);
-  out.qd.resize(n, total);
-  out.qdd.resize(n, total);
-  out.q.col(0) = wp[0];
-  out.qd.col(0).setZero();
-  out.qdd.col(0).setZero();
+  JointTrajectory out = JointTrajectory::startingAt(wp[0], total, dt);
   int k = 1;
   for (size_t i = 0; i < segs.size(); ++i) {
     const auto& [p, steps] = segs[i];
