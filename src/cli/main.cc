@@ -29,16 +29,19 @@ const char* kUsage =
     "  minimanip config-doc          print every experiment key as a Markdown table\n"
     "  minimanip help\n";
 
+// The value after the option at args[i] (i moves onto it); an InputError if there is none.
+std::string nextValue(const std::vector<std::string>& args, size_t& i) {
+  if (i + 1 >= args.size()) throw mm::InputError(args[i], "expected a value after " + args[i]);
+  return args[++i];
+}
+
 int run(const std::vector<std::string>& args, const std::string& command_line, bool bench) {
   if (args.empty()) throw mm::InputError("minimanip run", std::string("expected an experiment file\n") + kUsage);
   std::string file, out;
   std::vector<std::string> sets;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= args.size()) throw mm::InputError(a, "expected a value after " + a);
-      return args[++i];
-    };
+    auto value = [&] { return nextValue(args, i); };
     if (a == "--trials") sets.push_back("trials=" + value());
     else if (a == "--seed") sets.push_back("seed=" + value());
     else if (a == "--jobs") sets.push_back("jobs=" + value());
@@ -104,10 +107,7 @@ int ikBench(const std::vector<std::string>& args, const std::string& command_lin
   o.command_line = command_line;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= args.size()) throw mm::InputError(a, "expected a value after " + a);
-      return args[++i];
-    };
+    auto value = [&] { return nextValue(args, i); };
     if (a == "--robot") o.robot = value();
     else if (a == "--poses") o.poses = static_cast<int>(parseCount(a, value(), 1, 10000000));
     else if (a == "--seed") o.seed = static_cast<uint64_t>(parseCount(a, value(), 0, 9007199254740992L));
@@ -129,10 +129,7 @@ int planBench(const std::vector<std::string>& args, const std::string& command_l
   o.command_line = command_line;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= args.size()) throw mm::InputError(a, "expected a value after " + a);
-      return args[++i];
-    };
+    auto value = [&] { return nextValue(args, i); };
     if (a == "--scenes") o.scenes = static_cast<int>(parseCount(a, value(), 1, 100000));
     else if (a == "--seed") o.seed = static_cast<uint64_t>(parseCount(a, value(), 0, 9007199254740992L));
     else if (a == "--planners") o.planners = splitList(value());
