@@ -18,9 +18,11 @@ std::string benchmarkHarness(const Experiment& e, const std::string& command_lin
   const auto [T_bin, bin_half] = world->site("bin_region");
   const auto [T_place, place_half] = world->site("place_target");
   const std::vector<Obstacle> statics = world->staticObstacles();
-  PlaceTarget target;
-  target.T_world_object = T_place;
-  target.T_world_object.translation().z() += world->object(0).half_size.z();
+  Pose T_target = T_place;
+  T_target.translation().z() += world->object(0).half_size.z();
+  PerceptionOptions perception = e.perception;
+  perception.T_world_crop = T_bin;
+  perception.crop_half = bin_half;
   using Clock = std::chrono::steady_clock;
   auto secs = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
 
@@ -38,7 +40,9 @@ std::string benchmarkHarness(const Experiment& e, const std::string& command_lin
     world->recordControls(&log);
     auto hw = makeMujocoHardware(*world, robot, spawn.active);
     const auto t1 = Clock::now();
-    const TrialOutcome o = runPickAndPlace(*hw, robot, statics, target, e.task, e.perception, e.seed, i);
+    TrialContext ctx(*hw, robot, statics, e.task, perception, e.seed, i);
+    runPickAndPlace(ctx, T_target);
+    const TrialOutcome& o = ctx.out;
     const auto t2 = Clock::now();
     world->recordControls(nullptr);
     ok += o.success;

@@ -238,12 +238,13 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
   const auto [T_place, place_half] = worlds[0]->site("place_target");
   const std::vector<Obstacle> statics = worlds[0]->staticObstacles();
   const ObjectState proto = worlds[0]->object(0);
-  PlaceTarget target;
-  target.T_world_object = T_place;
-  target.T_world_object.translation().z() += proto.half_size.z();
+  Pose T_target = T_place;
+  T_target.translation().z() += proto.half_size.z();
   PerceptionOptions perception = e.perception;
   perception.hardcoded_pose = makePose(T_bin.translation() + Vec3(0, 0, proto.half_size.z()), Mat3::Identity());
   perception.hardcoded_half = proto.half_size;
+  perception.T_world_crop = T_bin;
+  perception.crop_half = bin_half;
 
   const fs::path out(co.out_dir);
   fs::create_directories(out);
@@ -271,7 +272,9 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
         } else {
           auto hw = e.hardware == "mock" ? makeMockHardware(world, robot, spawn.active)
                                          : makeMujocoHardware(world, robot, spawn.active);
-          o = runPickAndPlace(*hw, robot, statics, target, e.task, perception, e.seed, trial);
+          TrialContext ctx(*hw, robot, statics, e.task, perception, e.seed, trial);
+          runPickAndPlace(ctx, T_target);
+          o = std::move(ctx.out);
         }
         json j = trialJson(e, trial, spawn, o);
         std::lock_guard<std::mutex> lock(mu);

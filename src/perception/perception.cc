@@ -1,6 +1,16 @@
 #include "perception/perception.h"
 
+#include <cmath>
+
 namespace mm {
+
+bool insideCrop(const ObjectState& o, const PerceptionOptions& opt) {
+  if (opt.crop_half.x() <= 0 || opt.crop_half.y() <= 0) return true;
+  const Vec3 p = opt.T_world_crop.inverse() * o.T_world_object.translation();
+  constexpr double kMargin = 0.01;  // [m] a centre this far over the footprint's edge still counts
+  return std::abs(p.x()) <= opt.crop_half.x() + kMargin && std::abs(p.y()) <= opt.crop_half.y() + kMargin &&
+         p.z() > -kMargin && p.z() < opt.crop_height;
+}
 
 PerceptionResult perceive(const std::vector<ObjectState>& truth, const PerceptionOptions& o, Rng& rng) {
   PerceptionResult r;
@@ -15,6 +25,7 @@ PerceptionResult perceive(const std::vector<ObjectState>& truth, const Perceptio
     return r;
   }
   for (ObjectState s : truth) {
+    if (!insideCrop(s, o)) continue;
     if (o.noise_position > 0 || o.noise_yaw > 0) {
       s.T_world_object.translation().x() += rng.normal(0, o.noise_position);
       s.T_world_object.translation().y() += rng.normal(0, o.noise_position);

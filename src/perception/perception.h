@@ -17,7 +17,16 @@ struct PerceptionOptions {
   double noise_yaw = 0.0;       ///< [rad] std of Gaussian noise on yaw
   Pose hardcoded_pose = Pose::Identity();  ///< T_world_object assumed by the hardcoded mode
   Vec3 hardcoded_half = Vec3::Constant(0.025);
+  /// What the sensor looks at (the bin): a box whose frame sits on the bin floor, half sizes
+  /// (x, y) of the footprint; objects whose centre lies over the footprint and less than
+  /// `crop_height` above the floor are seen. Unset (zero footprint): everything is seen.
+  Pose T_world_crop = Pose::Identity();
+  Vec3 crop_half = Vec3::Zero();
+  double crop_height = 0.1;  ///< [m]
 };
+
+/// True when `o` lies inside the sensor's crop box (see PerceptionOptions).
+bool insideCrop(const ObjectState& o, const PerceptionOptions& options);
 
 struct PerceptionResult {
   bool ok = false;

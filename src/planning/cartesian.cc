@@ -22,14 +22,17 @@ CartesianPath planCartesianLine(const RobotModel& robot, CollisionChecker& check
     const double s = static_cast<double>(i) / n;
     const Pose T = makePose(T0.translation() + s * (T_goal.translation() - T0.translation()), q0.slerp(s, q1));
     if (!ik(T, q, next)) {
+      p.kind = FailureKind::kIk;
       p.reason = "no IK solution at " + std::to_string(int(100 * s)) + "% of the line";
       return p;
     }
     if ((next - q).cwiseAbs().maxCoeff() > o.max_joint_step) {
+      p.kind = FailureKind::kIk;
       p.reason = "joint jump at " + std::to_string(int(100 * s)) + "% of the line (IK branch change)";
       return p;
     }
     if (!checker.isValid(next)) {
+      p.kind = FailureKind::kCollision;
       p.reason = "collision at " + std::to_string(int(100 * s)) + "% of the line (" + checker.lastCollision() + ")";
       return p;
     }

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "core/failure.h"
 #include "planning/collision.h"
 #include "planning/trajectory.h"
 
@@ -25,6 +26,7 @@ struct CartesianPath {
   std::vector<VecX> waypoints;
   std::vector<double> cartesian_length;  ///< [m] length of each segment
   Pose T_start = Pose::Identity(), T_goal = Pose::Identity();
+  FailureKind kind = FailureKind::kNone;  ///< why it failed: kIk (no solution, branch change) or kCollision
   std::string reason;
 };
 

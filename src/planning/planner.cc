@@ -96,10 +96,12 @@ PlanResult planJointPath(const RobotModel& robot, CollisionChecker& checker, con
   PlanResult r;
   const long checks0 = checker.checks();
   if (!checker.isValid(start)) {
+    r.kind = FailureKind::kCollision;
     r.reason = "start state invalid (" + checker.lastCollision() + ")";
     return r;
   }
   if (!checker.isValid(goal)) {
+    r.kind = FailureKind::kCollision;
     r.reason = "goal state invalid (" + checker.lastCollision() + ")";
     return r;
   }
@@ -132,6 +134,7 @@ PlanResult planJointPath(const RobotModel& robot, CollisionChecker& checker, con
   pdef->setOptimizationObjective(objective);
   auto planner = makePlanner(o.planner, si, rng.seed32());
   if (!planner) {
+    r.kind = FailureKind::kPlanning;
     r.reason = "unknown planner '" + o.planner + "'";
     return r;
   }
@@ -142,6 +145,7 @@ PlanResult planJointPath(const RobotModel& robot, CollisionChecker& checker, con
   r.plan_seconds = seconds(t0);
   if (status != ob::PlannerStatus::EXACT_SOLUTION) {
     r.hit_time_limit = status == ob::PlannerStatus::TIMEOUT || r.plan_seconds >= o.time_limit;
+    r.kind = FailureKind::kPlanning;
     r.reason = std::string("planner ") + o.planner + ": " + status.asString();
     r.collision_checks = checker.checks() - checks0;
     return r;
@@ -169,6 +173,7 @@ PlanResult planJointPath(const RobotModel& robot, CollisionChecker& checker, con
   for (size_t k = 1; k < r.path.size(); ++k)
     if (!segmentValid(checker, r.path[k - 1], r.path[k], o.resolution)) {
       r.path.clear();
+      r.kind = FailureKind::kPlanning;
       r.reason = "simplified path failed re-validation (" + checker.lastCollision() + ")";
       r.collision_checks = checker.checks() - checks0;
       return r;

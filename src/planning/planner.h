@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "core/failure.h"
 #include "planning/collision.h"
 #include "robot/robot_model.h"
 
@@ -27,6 +28,7 @@ struct PlanResult {
   bool ok = false;
   std::vector<VecX> path;   ///< waypoints including start and goal
   std::string reason;       ///< why it failed
+  FailureKind kind = FailureKind::kNone;  ///< kCollision (start or goal invalid) or kPlanning
   double plan_seconds = 0;      ///< wall time of the planner
   double simplify_seconds = 0;  ///< wall time of the simplifier
   long collision_checks = 0;

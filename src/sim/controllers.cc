@@ -1,74 +1,279 @@
 #include "sim/controllers.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace mm {
 
-ExecutionResult executeTrajectory(Hardware& hw, const JointTrajectory& traj, double gripper_opening,
-                                  double gripper_force, const StepMonitor& monitor, double settle) {
-  ExecutionResult r;
-  const double t0 = hw.time();
-  const int n = traj.size();
-  hw.writeGripper(gripper_opening, gripper_force);
-  auto fail = [&](const std::string& why) {
-    r.ok = false;
-    r.reason = why;
-    r.duration = hw.time() - t0;
+void Motion::begin(const Hardware& hw) {
+  started_ = true;
+  t0_ = hw.time();
+}
+
+void Motion::succeed(const Hardware& hw) {
+  state_ = MotionState::kSucceeded;
+  duration_ = hw.time() - t0_;
+}
+
+void Motion::fail(const Hardware& hw, FailureKind kind, const std::string& reason) { fail(hw, Failure{"", kind, reason}); }
+
+void Motion::fail(const Hardware& hw, Failure failure) {
+  state_ = MotionState::kFailed;
+  failure_ = std::move(failure);
+  duration_ = hw.time() - t0_;
+}
+
+// ---- joint trajectory ------------------------------------------------------------------------
+
+TrajectoryMotion::TrajectoryMotion(JointTrajectory traj, double gripper_opening, double gripper_force,
+                                   StepMonitor monitor, const RobotModel& robot, double settle)
+    : traj_(std::move(traj)), opening_(gripper_opening), force_(gripper_force), monitor_(std::move(monitor)),
+      robot_(robot), settle_(settle) {}
+
+// Period k takes the state from sample k to sample k+1: the setpoint is the sample due at the
+// period's end (with the acceleration over the period), and the error is measured there. Then the
+// last sample is held until the joints are still.
+bool TrajectoryMotion::command(Hardware& hw) {
+  if (!started()) {
+    begin(hw);
+    hw.writeGripper(opening_, force_);
+  }
+  const int n = traj_.size();
+  if (n == 0) {
+    succeed(hw);
+    return false;
+  }
+  if (streaming_) {
+    if (k_ + 1 < n) {
+      hw.write(traj_.q.col(k_ + 1), traj_.qd.col(k_ + 1), traj_.qdd.col(k_));
+      return true;
+    }
+    streaming_ = false;
+  }
+  const VecX q_end = traj_.q.col(n - 1);
+  if (!(t_settle_ < settle_) ||
+      (hw.jointVelocities().cwiseAbs().maxCoeff() < 1e-3 && (q_end - hw.jointPositions()).cwiseAbs().maxCoeff() < 1e-3)) {
+    if (pending_.ok()) succeed(hw);
+    else fail(hw, pending_);
+    return false;
+  }
+  const VecX zero = VecX::Zero(traj_.q.rows());
+  hw.write(q_end, zero, zero);
+  return true;
+}
+
+void TrajectoryMotion::observe(Hardware& hw) {
+  if (hw.unstable()) return fail(hw, FailureKind::kSimUnstable, "SIM_UNSTABLE: " + hw.instabilityReason());
+  if (streaming_)
+    max_tracking_error_ =
+        std::max(max_tracking_error_, (traj_.q.col(k_ + 1) - hw.jointPositions()).cwiseAbs().maxCoeff());
+  if (monitor_ && pending_.ok()) {
+    pending_ = monitor_();
+    if (!pending_.ok()) stop(hw);
+  }
+  if (streaming_) ++k_;
+  else t_settle_ += hw.period();
+}
+
+// Called from observe(), before k_ moves on: the joints were just sent to sample k_ + 1.
+void TrajectoryMotion::stop(Hardware&) {
+  if (streaming_ && k_ + 2 < traj_.size()) {
+    traj_ = controlledStop(traj_, k_ + 1, robot_.vmax(), robot_.amax(), robot_.jmax());
+    k_ = -1;  // observe() moves it onto sample 0 of the stop, where the joints are being sent
+  }
+}
+
+void TrajectoryMotion::halt(Hardware& hw) {
+  if (!running()) return;
+  halted_ = true;
+  if (!started()) return succeed(hw);
+  if (streaming_ && k_ + 1 < traj_.size()) {
+    traj_ = controlledStop(traj_, k_, robot_.vmax(), robot_.amax(), robot_.jmax());
+    k_ = 0;
+    return;  // the stop streams, then the settle holds its end
+  }
+  if (pending_.ok()) succeed(hw);  // already holding the end at rest
+  else fail(hw, pending_);
+}
+
+// ---- gripper ---------------------------------------------------------------------------------
+
+GripperMotion::GripperMotion(VecX q_hold, double opening, double force, double timeout)
+    : q_hold_(std::move(q_hold)), opening_(opening), force_(force), timeout_(timeout) {}
+
+bool GripperMotion::command(Hardware& hw) {
+  if (!started()) {
+    begin(hw);
+    hw.writeGripper(opening_, force_);
+    last_ = hw.gripperOpening();
+  }
+  if (!(hw.time() - startTime() < timeout_)) {
+    final_opening_ = hw.gripperOpening();
+    succeed(hw);
+    return false;
+  }
+  const VecX zero = VecX::Zero(q_hold_.size());
+  hw.write(q_hold_, zero, zero);
+  return true;
+}
+
+void GripperMotion::observe(Hardware& hw) {
+  final_opening_ = hw.gripperOpening();
+  if (hw.unstable()) return fail(hw, FailureKind::kSimUnstable, "SIM_UNSTABLE: " + hw.instabilityReason());
+  // Done when still (under 5 mm/s) for 10 ms at the goal, or for 50 ms anywhere (blocked by
+  // what is between the fingers).
+  const double now = final_opening_;
+  still_ = std::abs(now - last_) < 5e-3 * hw.period() ? still_ + 1 : 0;
+  last_ = now;
+  const bool at_goal = std::abs(now - opening_) < 5e-4;
+  if (still_ >= static_cast<int>((at_goal ? 0.01 : 0.05) / hw.period())) succeed(hw);
+}
+
+void GripperMotion::halt(Hardware& hw) {
+  if (!running()) return;
+  halted_ = true;
+  final_opening_ = hw.gripperOpening();
+  hw.writeGripper(final_opening_, force_);  // the fingers stay where they are
+  succeed(hw);
+}
+
+// ---- hold ------------------------------------------------------------------------------------
+
+HoldMotion::HoldMotion(VecX q, double opening, double force, double seconds)
+    : q_(std::move(q)), opening_(opening), force_(force), seconds_(seconds) {}
+
+bool HoldMotion::command(Hardware& hw) {
+  if (!started()) {
+    begin(hw);
+    hw.writeGripper(opening_, force_);
+  }
+  if (!(hw.time() - startTime() < seconds_)) {
+    succeed(hw);
+    return false;
+  }
+  const VecX zero = VecX::Zero(q_.size());
+  hw.write(q_, zero, zero);
+  return true;
+}
+
+void HoldMotion::observe(Hardware& hw) {
+  if (hw.unstable()) fail(hw, FailureKind::kSimUnstable, "SIM_UNSTABLE: " + hw.instabilityReason());
+}
+
+void HoldMotion::halt(Hardware& hw) {
+  if (!running()) return;
+  halted_ = true;
+  succeed(hw);
+}
+
+void runToEnd(Hardware& hw, Motion& m) {
+  while (m.running() && m.command(hw)) {
+    hw.step();
+    m.observe(hw);
+  }
+}
+
+// ---- controlled stop -------------------------------------------------------------------------
+
+namespace {
+
+// The trajectory at time tau [s] (clamped to its span): position by cubic Hermite between the
+// samples (consistent with their velocities), velocity and acceleration linearly.
+struct Sampled {
+  VecX q, qd, qdd;
+};
+void sampleAt(const JointTrajectory& t, double tau, Sampled& s) {
+  const int n = t.size();
+  const double dt = t.dt;
+  const double x = std::clamp(tau / dt, 0.0, static_cast<double>(n - 1));
+  const int i = std::min(static_cast<int>(std::floor(x)), n - 2);
+  if (n < 2) {
+    s.q = t.q.col(0), s.qd = t.qd.col(0), s.qdd = t.qdd.col(0);
+    return;
+  }
+  const double f = x - i;
+  const double h00 = 2 * f * f * f - 3 * f * f + 1, h10 = f * f * f - 2 * f * f + f, h01 = -2 * f * f * f + 3 * f * f,
+               h11 = f * f * f - f * f;
+  s.q = h00 * t.q.col(i) + h10 * dt * t.qd.col(i) + h01 * t.q.col(i + 1) + h11 * dt * t.qd.col(i + 1);
+  s.qd = (1 - f) * t.qd.col(i) + f * t.qd.col(i + 1);
+  s.qdd = (1 - f) * t.qdd.col(i) + f * t.qdd.col(i + 1);
+}
+
+}  // namespace
+
+JointTrajectory controlledStop(const JointTrajectory& traj, int k, const VecX& vmax, const VecX& amax,
+                               const VecX& jmax) {
+  const int n = traj.size(), dof = static_cast<int>(traj.q.rows());
+  const double dt = traj.dt, t_k = k * dt, remaining = traj.duration() - t_k;
+  auto remainder = [&] {
+    JointTrajectory r;
+    r.dt = dt;
+    r.q = traj.q.rightCols(n - k);
+    r.qd = traj.qd.rightCols(n - k);
+    r.qdd = traj.qdd.rightCols(n - k);
     return r;
   };
-  // Period k takes the state from sample k to sample k+1: the setpoint is the sample due at the
-  // period's end (with the acceleration over the period), and the error is measured there.
-  for (int k = 0; k + 1 < n; ++k) {
-    hw.write(traj.q.col(k + 1), traj.qd.col(k + 1), traj.qdd.col(k));
-    hw.step();
-    if (hw.unstable()) return fail("SIM_UNSTABLE: " + hw.instabilityReason());
-    r.max_tracking_error = std::max(r.max_tracking_error, (traj.q.col(k + 1) - hw.jointPositions()).cwiseAbs().maxCoeff());
-    if (monitor) {
-      const std::string why = monitor();
-      if (!why.empty()) return fail(why);
-    }
+  // A lower bound on T: the deceleration qd * s' peaks at 1.5 |qd| / T, and the jerk qd * s''
+  // starts at 6 |qd| / T^2.
+  double T = 4 * dt;
+  for (int j = 0; j < dof; ++j) {
+    const double v = std::abs(traj.qd(j, k));
+    T = std::max({T, 1.5 * v / amax[j], std::sqrt(6 * v / jmax[j])});
   }
-  // Hold the final sample until still.
-  const VecX q_end = traj.q.col(n - 1), zero = VecX::Zero(traj.q.rows());
-  for (double t = 0; t < settle; t += hw.period()) {
-    if (hw.jointVelocities().cwiseAbs().maxCoeff() < 1e-3 && (q_end - hw.jointPositions()).cwiseAbs().maxCoeff() < 1e-3) break;
-    hw.write(q_end, zero, zero);
-    hw.step();
-    if (hw.unstable()) return fail("SIM_UNSTABLE: " + hw.instabilityReason());
-    if (monitor) {
-      const std::string why = monitor();
-      if (!why.empty()) return fail(why);
+  constexpr double kTol = 1e-9;
+  Sampled s;
+  for (int attempt = 0; attempt < 200; ++attempt, T *= 1.1) {
+    const int M = static_cast<int>(std::ceil(T / dt - 1e-9));
+    const double Tq = M * dt;
+    if (Tq / 2 >= remaining) return remainder();  // the trajectory's own end comes first
+    JointTrajectory stop;
+    stop.dt = dt;
+    stop.q.resize(dof, M + 1), stop.qd.resize(dof, M + 1), stop.qdd.resize(dof, M + 1);
+    bool ok = true;
+    for (int m = 0; m <= M && ok; ++m) {
+      const double u = static_cast<double>(m) / M;
+      const double sigma = 1 - 3 * u * u + 2 * u * u * u;
+      const double sigma_d = (-6 * u + 6 * u * u) / Tq;
+      const double tau = t_k + Tq * (u - u * u * u + 0.5 * u * u * u * u);
+      sampleAt(traj, tau, s);
+      stop.q.col(m) = s.q;
+      stop.qd.col(m) = s.qd * sigma;
+      stop.qdd.col(m) = s.qdd * sigma * sigma + s.qd * sigma_d;
+      for (int j = 0; j < dof && ok; ++j) {
+        ok = std::abs(stop.qd(j, m)) <= vmax[j] * (1 + kTol) && std::abs(stop.qdd(j, m)) <= amax[j] * (1 + kTol);
+        if (ok && m > 0) ok = std::abs(stop.qdd(j, m) - stop.qdd(j, m - 1)) / dt <= jmax[j] * (1 + kTol);
+      }
     }
+    if (!ok) continue;
+    stop.q.col(0) = traj.q.col(k);  // exactly where the joints were being sent (Hermite at f = 0)
+    return stop;
   }
-  r.duration = hw.time() - t0;
+  return remainder();
+}
+
+// ---- blocking forms --------------------------------------------------------------------------
+
+ExecutionResult executeTrajectory(Hardware& hw, const JointTrajectory& traj, double gripper_opening,
+                                  double gripper_force, const StepMonitor& monitor, const RobotModel& robot,
+                                  double settle) {
+  TrajectoryMotion m(traj, gripper_opening, gripper_force, monitor, robot, settle);
+  runToEnd(hw, m);
+  ExecutionResult r;
+  r.ok = m.state() == MotionState::kSucceeded;
+  r.reason = m.failure().reason;
+  r.max_tracking_error = m.maxTrackingError();
+  r.duration = m.duration();
   return r;
 }
 
 GripperResult moveGripper(Hardware& hw, const VecX& q_hold, double opening, double force, double timeout) {
+  GripperMotion m(q_hold, opening, force, timeout);
+  runToEnd(hw, m);
   GripperResult r;
-  const double t0 = hw.time();
-  const VecX zero = VecX::Zero(q_hold.size());
-  hw.writeGripper(opening, force);
-  double last = hw.gripperOpening();
-  int still = 0;
-  while (hw.time() - t0 < timeout) {
-    hw.write(q_hold, zero, zero);
-    hw.step();
-    if (hw.unstable()) {
-      r.ok = false;
-      r.reason = "SIM_UNSTABLE: " + hw.instabilityReason();
-      break;
-    }
-    const double now = hw.gripperOpening();
-    // Done when still (under 5 mm/s) for 10 ms at the goal, or for 50 ms anywhere (blocked by
-    // what is between the fingers).
-    still = std::abs(now - last) < 5e-3 * hw.period() ? still + 1 : 0;
-    last = now;
-    const bool at_goal = std::abs(now - opening) < 5e-4;
-    if (still >= static_cast<int>((at_goal ? 0.01 : 0.05) / hw.period())) break;
-  }
-  r.opening = hw.gripperOpening();
-  r.duration = hw.time() - t0;
+  r.ok = m.state() == MotionState::kSucceeded;
+  r.reason = m.failure().reason;
+  r.opening = m.opening();
+  r.duration = m.duration();
   return r;
 }
 

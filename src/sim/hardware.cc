@@ -19,6 +19,7 @@ class HardwareBase : public Hardware {
   VecX jointPositions() const override { return w_.armPositions(); }
   double gripperOpening() const override { return w_.fingerOpening(); }
   void write(const VecX& q, const VecX& qd, const VecX& qdd) override { q_cmd_ = q, qd_cmd_ = qd, qdd_cmd_ = qdd; }
+  VecX commandedPositions() const override { return q_cmd_; }
   void writeGripper(double opening, double max_force) override { grip_target_ = opening, grip_force_ = max_force; }
   std::vector<ObjectState> objects() const override {
     std::vector<ObjectState> out;

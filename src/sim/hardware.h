@@ -26,6 +26,8 @@ class Hardware {
   virtual double gripperOpening() const = 0; ///< [m] per finger
   /// One control period's joint setpoint: position [rad] with velocity and acceleration feed-forward.
   virtual void write(const VecX& q, const VecX& qd, const VecX& qdd) = 0;
+  /// The position last written [rad] (dim dof): where an idle arm is held.
+  virtual VecX commandedPositions() const = 0;
   /// Gripper goal: opening per finger [m] and the force limit [N].
   virtual void writeGripper(double opening, double max_force) = 0;
   /// Advances one control period.

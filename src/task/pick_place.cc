@@ -1,11 +1,10 @@
 #include "task/pick_place.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <optional>
 
-#include "core/rng.h"
-#include "sim/controllers.h"
+#include "core/error.h"
 #include "planning/chomp.h"
 #include "planning/time_parameterization.h"
 #include "sim/hardware.h"
@@ -36,429 +35,740 @@ double symmetricAngle(const Mat3& A, const Mat3& B, int fold) {
 
 int yawSymmetry(const Vec3& half) { return std::abs(half.x() - half.y()) < 1e-6 ? 4 : 2; }
 
-class Trial {
- public:
-  Trial(Hardware& hw, const RobotModel& robot, const std::vector<Obstacle>& statics, const PlaceTarget& target,
-        const TaskOptions& o, const PerceptionOptions& po, uint64_t seed, uint64_t trial)
-      : hw_(hw), robot_(robot), statics_(statics), target_(target), o_(o), po_(po),
-        rng_perception_(Rng::stream(seed, trial, Purpose::kPerception)),
-        rng_ik_(Rng::stream(seed, trial, Purpose::kIk)),
-        rng_plan_(Rng::stream(seed, trial, Purpose::kPlanner)),
-        ik_(makeIkSolver(o.ik_solver, robot)), ik_near_(makeIkSolver("dls", robot)) {}
+bool picked(const TrialContext& ctx, int index) {
+  return std::find(ctx.picked.begin(), ctx.picked.end(), index) != ctx.picked.end();
+}
 
-  TrialOutcome run() {
-    if (!pick()) return finish();
-    if (!place()) return finish();
-    if (!home()) return finish();
-    evaluate();
-    return finish();
+// The world as the planner knows it: the static cell, the perceived objects not yet picked (but
+// `exclude`), the objects let go of at their targets (but `exclude`), and the held object when
+// `attached`.
+PlanningScene planningScene(const TrialContext& ctx, int exclude, bool attached) {
+  PlanningScene s;
+  s.obstacles = ctx.statics;
+  for (const ObjectState& o : ctx.objects)
+    if (o.index != exclude && !picked(ctx, o.index)) s.obstacles.push_back(boxOf(o));
+  for (const PickRecord& p : ctx.out.picks)
+    if (p.at_target && p.object != exclude) {
+      ObjectState placed;
+      placed.index = p.object;
+      placed.name = "placed_" + std::to_string(p.object);
+      placed.half_size = p.half_size;
+      placed.T_world_object = p.T_world_target;
+      s.obstacles.push_back(boxOf(placed));
+    }
+  if (attached && ctx.held >= 0) {
+    s.has_attached = true;
+    s.attached_half = ctx.held_record.half_size;
+    s.T_tcp_attached = ctx.T_tcp_held;
+    s.finger_opening = ctx.held_record.half_size.y();
   }
+  return s;
+}
+
+IkFunction ikNear(TrialContext& ctx) {
+  return [&ctx](const Pose& T, const VecX& seed, VecX& q) {
+    IkRequest one = ctx.options.ik;
+    one.target = T;
+    one.seed = seed;
+    one.max_attempts = 1;  // a single descent from the seed: stay on its branch
+    one.limit_margin = 0.0;
+    // Converged far below the control period's resolution: samples 2 ms apart are differentiated
+    // twice, so IK noise of 1e-5 rad would read as accelerations of several rad/s^2.
+    one.tol_position = 1e-10;
+    one.tol_rotation = 1e-9;
+    const IkResult r = ctx.ik_near->solve(one, ctx.rng_ik);
+    if (r.ok()) q = r.q();
+    return r.ok();
+  };
+}
+
+// The configured solver, from `seed`, kept `kLimitMargin` inside the limits, nearest the seed.
+IkResult ikFar(TrialContext& ctx, const Pose& T, const VecX& seed) {
+  IkRequest req = ctx.options.ik;
+  req.target = T;
+  req.seed = seed;
+  req.limit_margin = kLimitMargin;
+  req.nearest = true;  // the least joint motion from where the arm will be
+  return ctx.ik->solve(req, ctx.rng_ik);
+}
+
+// A joint-space path from `start` to `goal` (the optional optimizer after the planner, CHOMP,
+// counts as planning) and its time parameterization. `checker` validated the path: it also judges
+// the samples of methods that leave the straight segments, which back off where one is invalid.
+Failure connect(TrialContext& ctx, const std::string& stage, CollisionChecker& checker, const PlanningScene& scene,
+                const VecX& start, const VecX& goal, JointTrajectory& out) {
+  PlanResult r = planJointPath(ctx.robot, checker, start, goal, ctx.rng_plan.next(), ctx.options.planner);
+  if (ctx.options.optimizer == "chomp" && r.ok) r.path = chompSmooth(ctx.robot, scene, checker, r.path).path;
+  if (!r.ok) return {stage, r.kind, r.reason};
+  TimedPath t = timeParameterize(ctx.options.time_parameterization, r.path, ctx.robot, ctx.options.scaling,
+                                 ctx.hw.period(), [&](const VecX& q) { return checker.isValid(q); });
+  if (t.trajectory.empty()) return {stage, FailureKind::kTimeParameterization, t.failure};
+  out = std::move(t.trajectory);
+  return {};
+}
+
+PlanStep trajectoryStep(const std::string& stage, JointTrajectory t, double opening, bool holding) {
+  PlanStep s;
+  s.kind = PlanStep::Kind::kTrajectory;
+  s.stage = stage;
+  s.trajectory = std::move(t);
+  s.opening = opening;
+  s.holding = holding;
+  return s;
+}
+
+PlanStep gripperStep(const std::string& stage, const VecX& q_hold, double opening) {
+  PlanStep s;
+  s.kind = PlanStep::Kind::kGripper;
+  s.stage = stage;
+  s.q_hold = q_hold;
+  s.opening = opening;
+  return s;
+}
+
+PlanStep markerStep(const std::string& stage, PlanStep::Kind kind) {
+  PlanStep s;
+  s.kind = kind;
+  s.stage = stage;
+  return s;
+}
+
+// ---- execution of a plan ---------------------------------------------------------------------
+
+// The plan's steps one after another on the hardware, each recorded as a stage with its
+// simulated time; the held object watched for a drop while carried.
+class PlanExecution final : public Motion {
+ public:
+  PlanExecution(TrialContext& ctx, Plan plan) : ctx_(ctx), plan_(std::move(plan)) {}
+
+  bool command(Hardware& hw) override {
+    if (!started()) begin(hw);
+    for (;;) {
+      if (current_) {
+        if (current_->running() && current_->command(hw)) return true;
+        endStep(hw);
+        if (!running()) return false;
+      }
+      if (halted_ || next_ >= plan_.steps.size()) {
+        succeed(hw);
+        return false;
+      }
+      startStep(hw);
+    }
+  }
+
+  void observe(Hardware& hw) override {
+    current_->observe(hw);
+    if (!current_->running()) endStep(hw);
+  }
+
+  void halt(Hardware& hw) override {
+    if (!running()) return;
+    halted_ = true;
+    if (current_) current_->halt(hw);
+  }
+
+  const Plan& plan() const { return plan_; }
+  const std::string& stageName() const { return stage_name_; }
 
  private:
-  // ---- bookkeeping --------------------------------------------------------------------------
-  bool fail(const std::string& stage, const std::string& reason) {
-    out_.success = false;
-    out_.failure_stage = stage;
-    out_.failure_reason = reason;
-    if (reason.rfind("SIM_UNSTABLE", 0) == 0) out_.sim_unstable = true;
-    if (!out_.stages.empty()) out_.stages.back().ok = false;
-    return false;
-  }
-  StageRecord& stage(const std::string& name) {
-    out_.stages.push_back({name, true, 0, 0});
-    return out_.stages.back();
-  }
-  TrialOutcome finish() {
-    out_.collision_count = hw_.collisionEvents();
-    out_.collision_log = hw_.collisionLog();
-    out_.sim_time = hw_.time() - t_sim0_;
-    out_.compute_time = out_.perception_time + out_.plan_pick_time + out_.plan_place_time + home_compute_;
-    out_.total_time = out_.perception_time + out_.plan_pick_time + out_.execute_pick_time + out_.plan_place_time +
-                      out_.execute_place_time + out_.return_home_time;
-    return out_;
-  }
-  IkFunction ikNear() {
-    return [this](const Pose& T, const VecX& seed, VecX& q) {
-      IkRequest one = o_.ik;
-      one.target = T;
-      one.seed = seed;
-      one.max_attempts = 1;  // a single descent from the seed: stay on its branch
-      one.limit_margin = 0.0;
-      // Converged far below the control period's resolution: samples 2 ms apart are differentiated
-      // twice, so IK noise of 1e-5 rad would read as accelerations of several rad/s^2.
-      one.tol_position = 1e-10;
-      one.tol_rotation = 1e-9;
-      const IkResult r = ik_near_->solve(one, rng_ik_);
-      if (r.ok()) q = r.q();
-      return r.ok();
-    };
-  }
-  // The configured solver, from `seed`, kept `kLimitMargin` inside the limits.
-  IkResult ikFar(const Pose& T, const VecX& seed) {
-    IkRequest req = o_.ik;
-    req.target = T;
-    req.seed = seed;
-    req.limit_margin = kLimitMargin;
-    req.nearest = true;  // the least joint motion from where the arm will be
-    return ik_->solve(req, rng_ik_);
-  }
-  PlanningScene scene(bool with_target, bool attached) const {
-    PlanningScene s;
-    s.obstacles = statics_;
-    for (const ObjectState& ob : objects_)
-      if (ob.index != target_obj_.index || with_target) s.obstacles.push_back(boxOf(ob));
-    if (attached) {
-      s.has_attached = true;
-      s.attached_half = target_obj_.half_size;
-      s.T_tcp_attached = T_tcp_object_;
-      s.finger_opening = target_obj_.half_size.y();
+  void startStep(Hardware& hw) {
+    const PlanStep& s = plan_.steps[next_++];
+    stage_name_ = s.stage;
+    stage_index_ = ctx_.out.stages.size();
+    ctx_.stage(s.stage);
+    step_ = &s;
+    const double force = ctx_.options.grasp_force;
+    switch (s.kind) {
+      case PlanStep::Kind::kTrajectory: {
+        StepMonitor monitor;
+        if (s.holding) monitor = [this] { return dropCheck(); };
+        current_ = std::make_unique<TrajectoryMotion>(s.trajectory, s.opening, force, monitor, ctx_.robot);
+        ctx_.gripper_opening = s.opening;
+        break;
+      }
+      case PlanStep::Kind::kGripper:
+        // The place steps before this one brought the object over its target.
+        if (s.release && plan_.places) ctx_.over_target = plan_.T_world_target;
+        // Detach before opening, as the source's task (weld mode: the attach plugin).
+        if (s.release && ctx_.held >= 0 && ctx_.options.weld) hw.attach(ctx_.held, false);
+        current_ = std::make_unique<GripperMotion>(s.q_hold, s.opening, force);
+        ctx_.gripper_opening = s.opening;
+        break;
+      case PlanStep::Kind::kAttach:
+        current_.reset();
+        attach(hw);
+        break;
+      case PlanStep::Kind::kMarker:
+        current_.reset();
+        break;
     }
-    return s;
-  }
-  // Executes and books the simulated time; `monitor` watches for drops while holding.
-  bool execute(const std::string& name, const JointTrajectory& t, double grip, double force, bool holding,
-               double& bucket) {
-    StageRecord& st = stage(name);
-    StepMonitor monitor;
-    if (holding) monitor = [this] { return dropCheck(); };
-    const ExecutionResult r = executeTrajectory(hw_, t, grip, force, monitor);
-    st.sim_seconds = r.duration;
-    bucket += r.duration;
-    out_.max_tracking_error = std::max(out_.max_tracking_error, r.max_tracking_error);
-    if (!r.ok) {
-      if (r.reason.rfind("dropped", 0) == 0) out_.dropped = true;
-      return fail(name, r.reason);
-    }
-    return true;
-  }
-  std::string dropCheck() {
-    const Pose T_tcp_obj = hw_.tcpPose().inverse() * hw_.object(target_obj_.index).T_world_object;
-    const double d = (T_tcp_obj.translation() - T_tcp_object_actual_.translation()).norm();
-    if (d > o_.drop_distance)
-      return "dropped: object " + std::to_string(int(d * 1000)) + " mm from its in-hand pose";
-    return "";
-  }
-  uint64_t planSeed() { return rng_plan_.next(); }
-  // The optional optimizer after the planner (CHOMP); its time counts as planning time.
-  void optimize(PlanResult& r, const PlanningScene& scene, CollisionChecker& checker) const {
-    if (o_.optimizer != "chomp" || !r.ok) return;
-    r.path = chompSmooth(robot_, scene, checker, r.path).path;
-  }
-  // `checker` is the one that validated `path`: it also judges the samples of methods that leave
-  // the straight segments (jerk_limited through waypoints, TOTG's blends), which back off where one
-  // is invalid.
-  JointTrajectory timeParameterize(const std::vector<VecX>& path, CollisionChecker& checker, std::string& failure) const {
-    TimedPath t = mm::timeParameterize(o_.time_parameterization, path, robot_, o_.scaling, hw_.period(),
-                                       [&](const VecX& q) { return checker.isValid(q); });
-    failure = t.failure;
-    return std::move(t.trajectory);
   }
 
-  // ---- pick -----------------------------------------------------------------------------------
-  bool pick() {
-    t_sim0_ = hw_.time();
-    const VecX q0 = hw_.jointPositions();  // CurrentState
-    {
-      StageRecord& st = stage("perception");
-      const auto t = Clock::now();
-      const PerceptionResult p = perceive(hw_.objects(), po_, rng_perception_);
-      st.compute_seconds = out_.perception_time = since(t);
-      if (!p.ok) return fail("perception", p.reason);
-      objects_ = p.objects;
+  // Books the step that ended; fails the whole execution where it failed.
+  void endStep(Hardware& hw) {
+    if (!current_) return;
+    std::unique_ptr<Motion> m = std::move(current_);
+    const PlanStep& s = *step_;
+    StageRecord& st = ctx_.out.stages[stage_index_];
+    st.sim_seconds = m->duration();
+    ctx_.executeBucket(plan_.bucket) += m->duration();
+    ctx_.out.max_tracking_error = std::max(ctx_.out.max_tracking_error, m->maxTrackingError());
+    if (m->state() == MotionState::kFailed) {
+      if (s.kind == PlanStep::Kind::kGripper && s.release) letGo();
+      Failure f = m->failure();
+      f.stage = s.stage;
+      return fail(hw, f);
     }
-    out_.objects_in_bin = static_cast<int>(objects_.size());
-    // The target: the object with most room around it (bin-picking picks the most accessible).
-    double best = -1;
-    for (const ObjectState& a : objects_) {
-      double room = 1.0;
-      for (const ObjectState& b : objects_)
-        if (a.index != b.index) room = std::min(room, (a.T_world_object.translation() - b.T_world_object.translation()).head<2>().norm());
-      if (room > best) best = room, target_obj_ = a;
-    }
-    out_.target_object = target_obj_.index;
-
-    const auto t_plan = Clock::now();
-    StageRecord* st = &stage("grasp_pose_ik");
-    std::vector<Obstacle> neighbours = statics_;
-    for (const ObjectState& b : objects_)
-      if (b.index != target_obj_.index) neighbours.push_back(boxOf(b));
-    const double preferred_yaw = yawOf(robot_.fk(robot_.home()).linear());
-    GraspOptions go = o_.grasp;
-    go.max_opening = 2 * robot_.spec().gripper.travel;
-    const auto candidates = topDownGrasps(target_obj_, preferred_yaw, neighbours, go);
-    if (candidates.empty())
-      return fail("grasp_pose_ik", "no top-down grasp for this object (tilted or too wide)");
-
-    PlanningScene full_scene = scene(true, false), approach_scene = scene(false, false);
-    const double widest = 2 * std::max(target_obj_.half_size.x(), target_obj_.half_size.y());
-    full_scene.finger_opening = approach_scene.finger_opening =
-        std::min(robot_.spec().gripper.travel, widest / 2 + o_.finger_margin);
-    auto full = makeChecker(o_.checker, robot_, full_scene, o_.padding);
-    auto no_target = makeChecker(o_.checker, robot_, approach_scene, o_.padding);
-    std::string last_stage = "grasp_pose_ik", last_reason;
-    bool found = false;
-    for (size_t c = 0; c < candidates.size() && c < static_cast<size_t>(o_.max_grasp_candidates); ++c) {
-      const GraspCandidate& g = candidates[c];
-      ++out_.grasp_candidates_tried;
-      const Pose T_grasp = g.T_world_tcp;
-      Pose T_pre = T_grasp;
-      T_pre.translation().z() += o_.approach_distance;
-      const IkResult pre = ikFar(T_pre, robot_.home());
-      if (!pre.ok()) {
-        last_stage = "grasp_pose_ik", last_reason = "pre-grasp: " + pre.reason;
-        continue;
+    if (m->halted()) return;
+    if (s.kind == PlanStep::Kind::kGripper) {
+      const double opening = static_cast<GripperMotion&>(*m).opening();
+      if (s.release) letGo();
+      if (s.expected_opening > 0) {
+        ctx_.out.grasp_opening = opening;
+        ctx_.held_record.grasp_opening = opening;
+        if (opening < 0.5 * s.expected_opening || opening < 0.003) {
+          ctx_.failed_grasps.push_back(plan_.T_world_grasp);
+          return fail(hw, Failure{s.stage, FailureKind::kGraspMissed,
+                                  "nothing between the fingers (closed to " + std::to_string(opening * 1000) + " mm)"});
+        }
       }
-      if (!full->isValid(pre.q())) {
-        last_stage = "grasp_pose_ik", last_reason = "pre-grasp configuration in collision (" + full->lastCollision() + ")";
-        continue;
-      }
-      approach_ = planCartesianLine(robot_, *no_target, pre.q(), T_grasp, ikNear(), o_.cartesian);
-      if (!approach_.ok) {
-        last_stage = "approach", last_reason = approach_.reason;
-        continue;
-      }
-      q_pre_ = pre.q();
-      q_grasp_ = approach_.waypoints.back();
-      T_grasp_ = T_grasp;
-      T_tcp_object_ = T_grasp.inverse() * target_obj_.T_world_object;
-      // Lift with the object attached.
-      PlanningScene ls = scene(false, true);
-      ls.attached_padding = -kSupportTolerance;  // the object leaves the bin floor it rests on
-      auto lifting = makeChecker(o_.checker, robot_, ls, o_.padding);
-      Pose T_lift = T_grasp;
-      T_lift.translation().z() += o_.lift_height;
-      lift_ = planCartesianLine(robot_, *lifting, q_grasp_, T_lift, ikNear(), o_.cartesian);
-      out_.collision_checks += lifting->checks();
-      if (!lift_.ok) {
-        last_stage = "lift", last_reason = lift_.reason;
-        continue;
-      }
-      found = true;
-      out_.grasp_opening = g.width / 2;
-      pre_opening_ = std::min(robot_.spec().gripper.travel, g.width / 2 + o_.finger_margin);
-      break;
     }
-    if (!found) {
-      out_.plan_pick_time = st->compute_seconds = since(t_plan);
-      out_.collision_checks += full->checks() + no_target->checks();
-      return fail(last_stage, last_reason + " (after " + std::to_string(out_.grasp_candidates_tried) + " grasp candidates)");
-    }
-    st = &stage("connect_pregrasp");
-    PlanResult connect = planJointPath(robot_, *full, q0, q_pre_, planSeed(), o_.planner);
-    optimize(connect, full_scene, *full);
-    out_.collision_checks += full->checks() + no_target->checks();
-    out_.plan_pick_time = st->compute_seconds = since(t_plan);
-    if (!connect.ok) return fail("connect_pregrasp", connect.reason);
-    const double dt = hw_.period();
-    std::string tp_failure;
-    const JointTrajectory t_connect = timeParameterize(connect.path, *full, tp_failure);
-    if (t_connect.empty()) return fail("connect_pregrasp", tp_failure);
-    const JointTrajectory t_approach = cartesianTrajectory(robot_, approach_, ikNear(), o_.scaling, o_.cartesian, dt);
-    const JointTrajectory t_lift = cartesianTrajectory(robot_, lift_, ikNear(), o_.scaling, o_.cartesian, dt);
-    if (t_approach.empty() || t_lift.empty())
-      return fail(t_approach.empty() ? "approach" : "lift", "no smooth time parameterization of the straight line");
-
-    // Execute the pick. The fingers open to the object's half width plus a margin, not wider:
-    // in a bin, the room beside the object is what limits a grasp.
-    const double travel = pre_opening_;
-    {
-      StageRecord& s = stage("open_gripper");
-      const GripperResult g = moveGripper(hw_, q0, travel, o_.grasp_force);
-      s.sim_seconds = g.duration;
-      out_.execute_pick_time += g.duration;
-      if (!g.ok) return fail("open_gripper", g.reason);
-    }
-    if (!execute("move_pregrasp", t_connect, travel, o_.grasp_force, false, out_.execute_pick_time)) return false;
-    if (!execute("approach", t_approach, travel, o_.grasp_force, false, out_.execute_pick_time)) return false;
-    {
-      StageRecord& s = stage("close_gripper");
-      const GripperResult g = moveGripper(hw_, q_grasp_, 0.0, o_.grasp_force);
-      s.sim_seconds = g.duration;
-      out_.execute_pick_time += g.duration;
-      const double expected = out_.grasp_opening;  // the object's half width across the fingers
-      out_.grasp_opening = g.opening;
-      if (!g.ok) return fail("close_gripper", g.reason);
-      if (g.opening < 0.5 * expected || g.opening < 0.003)
-        return fail("close_gripper", "nothing between the fingers (closed to " + std::to_string(g.opening * 1000) + " mm)");
-    }
-    stage("attach");
-    T_tcp_object_actual_ = hw_.tcpPose().inverse() * hw_.object(target_obj_.index).T_world_object;
-    if (o_.weld) hw_.attach(target_obj_.index, true);
-    return execute("lift", t_lift, 0.0, o_.grasp_force, true, out_.execute_pick_time);
   }
 
-  // ---- place ----------------------------------------------------------------------------------
-  bool place() {
-    const auto t_plan = Clock::now();
-    StageRecord* st = &stage("place_pose_ik");
-    const VecX q_lift = lift_.waypoints.back();
-    auto carrying = makeChecker(o_.checker, robot_, scene(false, true), o_.padding);
-    // Placing: the held object goes down to the tray with no padding of its own.
-    PlanningScene ps = scene(false, true);
-    ps.attached_padding = -kSupportTolerance;
-    auto descending = makeChecker(o_.checker, robot_, ps, o_.padding);
-    // TCP poses that put the object at the target, one per symmetric yaw; least wrist turn first.
-    const int fold = yawSymmetry(target_obj_.half_size);
-    Pose T_obj_place = target_.T_world_object;
-    T_obj_place.translation().z() += o_.place_clearance;
-    const double yaw_now = yawOf(robot_.fk(q_lift).linear());
-    std::vector<std::pair<double, Pose>> options;
-    for (int k = 0; k < fold; ++k) {
-      Pose T_obj = T_obj_place;
-      T_obj.linear() = T_obj_place.linear() * rotZ(2 * M_PI * k / fold);
-      const Pose T_tcp = T_obj * T_tcp_object_.inverse();
-      options.push_back({std::abs(wrapAngle(yawOf(T_tcp.linear()) - yaw_now)), T_tcp});
-    }
-    std::stable_sort(options.begin(), options.end(), [](auto& a, auto& b) { return a.first < b.first; });
-    std::string last_stage = "place_pose_ik", last_reason = "no IK solution for any place pose";
-    bool found = false;
-    VecX q_preplace;
-    for (const auto& [cost, T_place] : options) {
-      Pose T_pre = T_place;
-      T_pre.translation().z() += o_.approach_distance;
-      const IkResult pre = ikFar(T_pre, q_lift);
-      if (!pre.ok()) {
-        last_stage = "place_pose_ik", last_reason = "pre-place: " + pre.reason;
-        continue;
-      }
-      if (!carrying->isValid(pre.q())) {
-        last_stage = "place_pose_ik", last_reason = "pre-place configuration in collision (" + carrying->lastCollision() + ")";
-        continue;
-      }
-      descend_ = planCartesianLine(robot_, *descending, pre.q(), T_place, ikNear(), o_.cartesian);
-      if (!descend_.ok) {
-        last_stage = "place", last_reason = descend_.reason;
-        continue;
-      }
-      // Retreat: fingers open, the placed object left behind (between the fingers, not checked).
-      PlanningScene rs = scene(false, false);
-      rs.finger_opening = robot_.spec().gripper.travel;
-      auto retreating = makeChecker(o_.checker, robot_, rs, o_.padding);
-      Pose T_up = T_place;
-      T_up.translation().z() += o_.retreat_distance;
-      retreat_ = planCartesianLine(robot_, *retreating, descend_.waypoints.back(), T_up, ikNear(), o_.cartesian);
-      out_.collision_checks += retreating->checks();
-      if (!retreat_.ok) {
-        last_stage = "retreat", last_reason = retreat_.reason;
-        continue;
-      }
-      q_preplace = pre.q();
-      found = true;
-      break;
-    }
-    if (!found) {
-      out_.plan_place_time = st->compute_seconds = since(t_plan);
-      return fail(last_stage, last_reason);
-    }
-    st = &stage("connect_place");
-    PlanResult connect = planJointPath(robot_, *carrying, q_lift, q_preplace, planSeed(), o_.planner);
-    optimize(connect, scene(false, true), *carrying);
-    out_.collision_checks += carrying->checks() + descending->checks();
-    out_.plan_place_time = st->compute_seconds = since(t_plan);
-    if (!connect.ok) return fail("connect_place", connect.reason);
-    const double dt = hw_.period();
-    std::string tp_failure;
-    const JointTrajectory t_connect = timeParameterize(connect.path, *carrying, tp_failure);
-    if (t_connect.empty()) return fail("connect_place", tp_failure);
-    const JointTrajectory t_descend = cartesianTrajectory(robot_, descend_, ikNear(), o_.scaling, o_.cartesian, dt);
-    const JointTrajectory t_retreat = cartesianTrajectory(robot_, retreat_, ikNear(), o_.scaling, o_.cartesian, dt);
-    if (t_descend.empty() || t_retreat.empty())
-      return fail(t_descend.empty() ? "place" : "retreat", "no smooth time parameterization of the straight line");
-
-    if (!execute("move_preplace", t_connect, 0.0, o_.grasp_force, true, out_.execute_place_time)) return false;
-    if (!execute("place", t_descend, 0.0, o_.grasp_force, true, out_.execute_place_time)) return false;
-    {
-      StageRecord& s = stage("open_gripper_release");
-      if (o_.weld) hw_.attach(target_obj_.index, false);  // Detach before opening, as the source's task
-      const GripperResult g = moveGripper(hw_, descend_.waypoints.back(), robot_.spec().gripper.travel, o_.grasp_force);
-      s.sim_seconds = g.duration;
-      out_.execute_place_time += g.duration;
-      if (!g.ok) return fail("open_gripper_release", g.reason);
-    }
-    stage("detach");
-    return execute("retreat", t_retreat, robot_.spec().gripper.travel, o_.grasp_force, false, out_.execute_place_time);
+  void attach(Hardware& hw) {
+    ctx_.held = plan_.object;
+    ctx_.picked.push_back(plan_.object);
+    ctx_.T_tcp_held = plan_.T_tcp_object;
+    ctx_.T_tcp_held_actual = hw.tcpPose().inverse() * hw.object(plan_.object).T_world_object;
+    PickRecord r;
+    r.object = plan_.object;
+    r.half_size = plan_.object_half;
+    r.grasp_candidates_tried = plan_.grasp_candidates_tried;
+    r.grasp_opening = ctx_.out.grasp_opening;
+    ctx_.held_record = r;
+    if (ctx_.options.weld) hw.attach(plan_.object, true);
   }
 
-  // ---- home -----------------------------------------------------------------------------------
-  bool home() {
-    const auto t_plan = Clock::now();
-    StageRecord& st = stage("plan_home");
-    PlanningScene s = scene(false, false);
-    ObjectState placed = target_obj_;
-    placed.T_world_object = target_.T_world_object;
-    s.obstacles.push_back(boxOf(placed));
-    s.finger_opening = robot_.spec().gripper.travel;
-    auto checker = makeChecker(o_.checker, robot_, s, o_.padding);
-    PlanResult r = planJointPath(robot_, *checker, retreat_.waypoints.back(), robot_.home(), planSeed(), o_.planner);
-    optimize(r, s, *checker);
-    out_.collision_checks += checker->checks();
-    st.compute_seconds = home_compute_ = since(t_plan);
-    out_.return_home_time += home_compute_;
-    if (!r.ok) return fail("plan_home", r.reason);
-    std::string tp_failure;
-    const JointTrajectory t = timeParameterize(r.path, *checker, tp_failure);
-    if (t.empty()) return fail("plan_home", tp_failure);
-    return execute("return_home", t, robot_.spec().gripper.travel, o_.grasp_force, false, out_.return_home_time);
+  // The gripper let go of the held object: over its target when a place brought it there.
+  void letGo() {
+    if (ctx_.held < 0) return;
+    PickRecord r = ctx_.held_record;
+    r.at_target = ctx_.over_target.has_value();
+    if (r.at_target) r.T_world_target = *ctx_.over_target;
+    ctx_.out.picks.push_back(r);
+    ctx_.held = -1;
+    ctx_.over_target.reset();
   }
 
-  // ---- evaluation: measured in the simulator, never assumed ------------------------------------
-  void evaluate() {
-    StageRecord& st = stage("evaluate");
-    const VecX q = robot_.home(), zero = VecX::Zero(robot_.dof());
-    const double t0 = hw_.time();
-    hw_.writeGripper(robot_.spec().gripper.travel, o_.grasp_force);
-    while (hw_.time() - t0 < o_.settle_time) {
-      hw_.write(q, zero, zero);
-      hw_.step();
-      if (hw_.unstable()) {
-        fail("evaluate", "SIM_UNSTABLE: " + hw_.instabilityReason());
-        return;
-      }
-    }
-    st.sim_seconds = hw_.time() - t0;
-    const ObjectState o = hw_.object(target_obj_.index);
-    const Vec3 p = o.T_world_object.translation(), goal = target_.T_world_object.translation();
-    out_.place_position_error = (p - goal).head<2>().norm();
-    out_.place_orientation_error =
-        symmetricAngle(o.T_world_object.linear(), target_.T_world_object.linear(), yawSymmetry(o.half_size));
-    const double rest_error = std::abs(p.z() - goal.z());
-    const double speed = hw_.objectVelocity(target_obj_.index).norm();
-    if (out_.place_position_error > o_.tolerance_position)
-      fail("evaluate", "object " + std::to_string(out_.place_position_error * 1000) + " mm from the place target");
-    else if (out_.place_orientation_error > o_.tolerance_orientation)
-      fail("evaluate", "object orientation off by " + std::to_string(out_.place_orientation_error * 180 / M_PI) + " deg");
-    else if (rest_error > 0.01)
-      fail("evaluate", "object not resting on the target surface (height off by " + std::to_string(rest_error * 1000) + " mm)");
-    else if (speed > 0.01)
-      fail("evaluate", "object still moving (" + std::to_string(speed) + " m/s)");
-    else
-      out_.success = true;
+  Failure dropCheck() {
+    if (ctx_.held < 0) return {};
+    const Hardware& hw = ctx_.hw;
+    const Pose T_tcp_obj = hw.tcpPose().inverse() * hw.object(ctx_.held).T_world_object;
+    const double d = (T_tcp_obj.translation() - ctx_.T_tcp_held_actual.translation()).norm();
+    if (d > ctx_.options.drop_distance)
+      return {"", FailureKind::kDropped, "dropped: object " + std::to_string(int(d * 1000)) + " mm from its in-hand pose"};
+    return {};
   }
 
-  Hardware& hw_;
-  const RobotModel& robot_;
-  const std::vector<Obstacle>& statics_;
-  PlaceTarget target_;
-  const TaskOptions& o_;
-  const PerceptionOptions& po_;
-  Rng rng_perception_, rng_ik_, rng_plan_;
-  std::unique_ptr<IkSolver> ik_, ik_near_;
-  TrialOutcome out_;
-  double t_sim0_ = 0, home_compute_ = 0, pre_opening_ = 0.04;
-  std::vector<ObjectState> objects_;
-  ObjectState target_obj_;
-  VecX q_pre_, q_grasp_;
-  Pose T_grasp_ = Pose::Identity(), T_tcp_object_ = Pose::Identity(), T_tcp_object_actual_ = Pose::Identity();
-  CartesianPath approach_, lift_, descend_, retreat_;
+  TrialContext& ctx_;
+  Plan plan_;
+  size_t next_ = 0, stage_index_ = 0;
+  const PlanStep* step_ = nullptr;
+  std::unique_ptr<Motion> current_;
+  std::string stage_name_;
 };
 
 }  // namespace
 
-TrialOutcome runPickAndPlace(Hardware& hw, const RobotModel& robot, const std::vector<Obstacle>& static_obstacles,
-                             const PlaceTarget& target, const TaskOptions& task, const PerceptionOptions& perception,
-                             uint64_t campaign_seed, uint64_t trial) {
-  Trial t(hw, robot, static_obstacles, target, task, perception, campaign_seed, trial);
-  return t.run();
+// ---- perception ------------------------------------------------------------------------------
+
+Failure detectObjects(TrialContext& ctx) {
+  StageRecord& st = ctx.stage("perception");
+  const auto t = Clock::now();
+  std::vector<ObjectState> truth;
+  for (const ObjectState& o : ctx.hw.objects())
+    if (o.index != ctx.held) truth.push_back(o);
+  const PerceptionResult p = perceive(truth, ctx.perception, ctx.rng_perception);
+  st.compute_seconds = since(t);
+  ctx.out.perception_time += st.compute_seconds;
+  if (!p.ok) return ctx.fail({"perception", FailureKind::kPerception, p.reason});
+  const bool first = ctx.objects.empty() && ctx.picked.empty();
+  ctx.objects = p.objects;
+  if (first) ctx.out.objects_in_bin = static_cast<int>(ctx.objects.size());
+  return {};
+}
+
+int mostAccessibleObject(const TrialContext& ctx) {
+  int target = -1;
+  double best = -1;
+  for (size_t i = 0; i < ctx.objects.size(); ++i) {
+    const ObjectState& a = ctx.objects[i];
+    if (picked(ctx, a.index)) continue;
+    double room = 1.0;
+    for (const ObjectState& b : ctx.objects)
+      if (a.index != b.index && !picked(ctx, b.index))
+        room = std::min(room, (a.T_world_object.translation() - b.T_world_object.translation()).head<2>().norm());
+    if (room > best) best = room, target = static_cast<int>(i);
+  }
+  return target;
+}
+
+int perceivedObjectAt(const TrialContext& ctx, const Pose& T_world_object) {
+  int best = -1;
+  double best_d = 0.05;
+  for (size_t i = 0; i < ctx.objects.size(); ++i) {
+    const double d = (ctx.objects[i].T_world_object.translation() - T_world_object.translation()).norm();
+    if (d <= best_d && !picked(ctx, ctx.objects[i].index)) best_d = d, best = static_cast<int>(i);
+  }
+  return best;
+}
+
+int objectsInBin(const TrialContext& ctx) {
+  int n = 0;
+  for (const ObjectState& o : ctx.hw.objects())
+    if (o.index != ctx.held && insideCrop(o, ctx.perception)) ++n;
+  return n;
+}
+
+// ---- pick ------------------------------------------------------------------------------------
+
+std::vector<GraspCandidate> graspCandidates(TrialContext& ctx, const ObjectState& object) {
+  std::vector<Obstacle> neighbours = ctx.statics;
+  for (const ObjectState& b : ctx.objects)
+    if (b.index != object.index && !picked(ctx, b.index)) neighbours.push_back(boxOf(b));
+  const double preferred_yaw = yawOf(ctx.robot.fk(ctx.robot.home()).linear());
+  GraspOptions go = ctx.options.grasp;
+  go.max_opening = 2 * ctx.robot.spec().gripper.travel;
+  return topDownGrasps(object, preferred_yaw, neighbours, go);
+}
+
+Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vector<GraspCandidate>& candidates,
+                    size_t first, GraspSolution& out) {
+  const TaskOptions& o = ctx.options;
+  const double travel = ctx.robot.spec().gripper.travel;
+  const auto t = Clock::now();
+  StageRecord* st = &ctx.stage("grasp_pose_ik");
+  if (ctx.out.target_object < 0) ctx.out.target_object = object.index;
+  auto done = [&](const Failure& f) {
+    st->compute_seconds = since(t);
+    ctx.out.plan_pick_time += st->compute_seconds;
+    return f.ok() ? f : ctx.fail(f);
+  };
+  if (candidates.empty())
+    return done({"grasp_pose_ik", FailureKind::kNoGrasp, "no top-down grasp for this object (tilted or too wide)"});
+  PlanningScene full_scene = planningScene(ctx, -1, false), approach_scene = planningScene(ctx, object.index, false);
+  const double widest = 2 * std::max(object.half_size.x(), object.half_size.y());
+  full_scene.finger_opening = approach_scene.finger_opening = std::min(travel, widest / 2 + o.finger_margin);
+  auto full = makeChecker(o.checker, ctx.robot, full_scene, o.padding);
+  auto no_target = makeChecker(o.checker, ctx.robot, approach_scene, o.padding);
+  Failure last{"grasp_pose_ik", FailureKind::kNoGrasp, "every grasp candidate failed before in this trial"};
+  int tried = 0;
+  bool found = false;
+  for (size_t c = first; c < candidates.size() && tried < o.max_grasp_candidates; ++c) {
+    const GraspCandidate& g = candidates[c];
+    const bool failed_before = std::any_of(ctx.failed_grasps.begin(), ctx.failed_grasps.end(), [&](const Pose& T) {
+      return (T.translation() - g.T_world_tcp.translation()).norm() < 1e-3 &&
+             angleBetween(T.linear(), g.T_world_tcp.linear()) < 1e-2;
+    });
+    if (failed_before) continue;
+    ++tried;
+    ++ctx.out.grasp_candidates_tried;
+    const Pose& T_grasp = g.T_world_tcp;
+    Pose T_pre = T_grasp;
+    T_pre.translation().z() += o.approach_distance;
+    const IkResult pre = ikFar(ctx, T_pre, ctx.robot.home());
+    if (!pre.ok()) {
+      last = {"grasp_pose_ik", FailureKind::kIk, "pre-grasp: " + pre.reason};
+      continue;
+    }
+    if (!full->isValid(pre.q())) {
+      last = {"grasp_pose_ik", FailureKind::kCollision, "pre-grasp configuration in collision (" + full->lastCollision() + ")"};
+      continue;
+    }
+    out.approach = planCartesianLine(ctx.robot, *no_target, pre.q(), T_grasp, ikNear(ctx), o.cartesian);
+    if (!out.approach.ok) {
+      last = {"approach", out.approach.kind, out.approach.reason};
+      continue;
+    }
+    out.q_pre = pre.q();
+    out.q_grasp = out.approach.waypoints.back();
+    out.T_tcp_object = T_grasp.inverse() * object.T_world_object;
+    // Lift with the object attached; it leaves the bin floor it rests on.
+    PlanningScene ls = planningScene(ctx, object.index, false);
+    ls.has_attached = true;
+    ls.attached_half = object.half_size;
+    ls.T_tcp_attached = out.T_tcp_object;
+    ls.finger_opening = object.half_size.y();
+    ls.attached_padding = -kSupportTolerance;
+    auto lifting = makeChecker(o.checker, ctx.robot, ls, o.padding);
+    Pose T_lift = T_grasp;
+    T_lift.translation().z() += o.lift_height;
+    out.lift = planCartesianLine(ctx.robot, *lifting, out.q_grasp, T_lift, ikNear(ctx), o.cartesian);
+    ctx.out.collision_checks += lifting->checks();
+    if (!out.lift.ok) {
+      last = {"lift", out.lift.kind, out.lift.reason};
+      continue;
+    }
+    found = true;
+    out.object = object;
+    out.candidate = g;
+    out.candidate_index = static_cast<int>(c);
+    out.candidates_tried = tried;
+    ctx.out.grasp_opening = g.width / 2;
+    out.pre_opening = std::min(travel, g.width / 2 + o.finger_margin);
+    break;
+  }
+  ctx.out.collision_checks += full->checks() + no_target->checks();
+  if (!found) {
+    last.reason += " (after " + std::to_string(ctx.out.grasp_candidates_tried) + " grasp candidates)";
+    return done(last);
+  }
+  return done({});
+}
+
+Failure planPick(TrialContext& ctx, const GraspSolution& g, Plan& out) {
+  const TaskOptions& o = ctx.options;
+  const double travel = ctx.robot.spec().gripper.travel;
+  const auto t = Clock::now();
+  StageRecord& st = ctx.stage("connect_pregrasp");
+  auto done = [&](const Failure& f) {
+    st.compute_seconds = since(t);
+    ctx.out.plan_pick_time += st.compute_seconds;
+    return f.ok() ? f : ctx.fail(f);
+  };
+  PlanningScene full_scene = planningScene(ctx, -1, false);
+  const double widest = 2 * std::max(g.object.half_size.x(), g.object.half_size.y());
+  full_scene.finger_opening = std::min(travel, widest / 2 + o.finger_margin);
+  auto full = makeChecker(o.checker, ctx.robot, full_scene, o.padding);
+  JointTrajectory t_connect;
+  const Failure f = connect(ctx, "connect_pregrasp", *full, full_scene, ctx.q_rest, g.q_pre, t_connect);
+  ctx.out.collision_checks += full->checks();
+  if (!f.ok()) return done(f);
+  const double dt = ctx.hw.period();
+  JointTrajectory t_approach = cartesianTrajectory(ctx.robot, g.approach, ikNear(ctx), o.scaling, o.cartesian, dt);
+  JointTrajectory t_lift = cartesianTrajectory(ctx.robot, g.lift, ikNear(ctx), o.scaling, o.cartesian, dt);
+  if (t_approach.empty() || t_lift.empty())
+    return done({t_approach.empty() ? "approach" : "lift", FailureKind::kTimeParameterization,
+                 "no smooth time parameterization of the straight line"});
+  // The fingers open to the object's half width plus a margin, not wider: in a bin, the room
+  // beside the object is what limits a grasp.
+  out = Plan{};
+  out.name = "pick";
+  out.bucket = TimeBucket::kPick;
+  out.steps.push_back(gripperStep("open_gripper", ctx.q_rest, g.pre_opening));
+  out.steps.push_back(trajectoryStep("move_pregrasp", std::move(t_connect), g.pre_opening, false));
+  out.steps.push_back(trajectoryStep("approach", std::move(t_approach), g.pre_opening, false));
+  PlanStep close = gripperStep("close_gripper", g.q_grasp, 0.0);
+  close.expected_opening = g.candidate.width / 2;
+  out.steps.push_back(close);
+  out.steps.push_back(markerStep("attach", PlanStep::Kind::kAttach));
+  out.steps.push_back(trajectoryStep("lift", std::move(t_lift), 0.0, true));
+  out.q_end = g.lift.waypoints.back();
+  out.object = g.object.index;
+  out.object_half = g.object.half_size;
+  out.T_tcp_object = g.T_tcp_object;
+  out.T_world_grasp = g.candidate.T_world_tcp;
+  out.grasp_candidates_tried = g.candidates_tried;
+  return done({});
+}
+
+// ---- place -----------------------------------------------------------------------------------
+
+Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, Plan& out) {
+  const TaskOptions& o = ctx.options;
+  const double travel = ctx.robot.spec().gripper.travel;
+  const auto t = Clock::now();
+  StageRecord* st = &ctx.stage("place_pose_ik");
+  auto done = [&](const Failure& f) {
+    st->compute_seconds = since(t);
+    ctx.out.plan_place_time += st->compute_seconds;
+    return f.ok() ? f : ctx.fail(f);
+  };
+  if (ctx.held < 0) return done({"place_pose_ik", FailureKind::kPrecondition, "nothing in the hand to place"});
+  const VecX q_lift = ctx.q_rest;
+  const Vec3 half = ctx.held_record.half_size;
+  const PlanningScene carrying_scene = planningScene(ctx, -1, true);
+  auto carrying = makeChecker(o.checker, ctx.robot, carrying_scene, o.padding);
+  // Placing: the held object goes down to the tray with no padding of its own.
+  PlanningScene ps = planningScene(ctx, -1, true);
+  ps.attached_padding = -kSupportTolerance;
+  auto descending = makeChecker(o.checker, ctx.robot, ps, o.padding);
+  // TCP poses that put the object at the target, one per symmetric yaw; least wrist turn first.
+  const int fold = yawSymmetry(half);
+  Pose T_obj_place = T_world_object;
+  T_obj_place.translation().z() += o.place_clearance;
+  const double yaw_now = yawOf(ctx.robot.fk(q_lift).linear());
+  std::vector<std::pair<double, Pose>> options;
+  for (int k = 0; k < fold; ++k) {
+    Pose T_obj = T_obj_place;
+    T_obj.linear() = T_obj_place.linear() * rotZ(2 * M_PI * k / fold);
+    const Pose T_tcp = T_obj * ctx.T_tcp_held.inverse();
+    options.push_back({std::abs(wrapAngle(yawOf(T_tcp.linear()) - yaw_now)), T_tcp});
+  }
+  std::stable_sort(options.begin(), options.end(), [](auto& a, auto& b) { return a.first < b.first; });
+  Failure last{"place_pose_ik", FailureKind::kIk, "no IK solution for any place pose"};
+  bool found = false;
+  VecX q_preplace;
+  CartesianPath descend, retreat;
+  for (const auto& [cost, T_place] : options) {
+    Pose T_pre = T_place;
+    T_pre.translation().z() += o.approach_distance;
+    const IkResult pre = ikFar(ctx, T_pre, q_lift);
+    if (!pre.ok()) {
+      last = {"place_pose_ik", FailureKind::kIk, "pre-place: " + pre.reason};
+      continue;
+    }
+    if (!carrying->isValid(pre.q())) {
+      last = {"place_pose_ik", FailureKind::kCollision, "pre-place configuration in collision (" + carrying->lastCollision() + ")"};
+      continue;
+    }
+    descend = planCartesianLine(ctx.robot, *descending, pre.q(), T_place, ikNear(ctx), o.cartesian);
+    if (!descend.ok) {
+      last = {"place", descend.kind, descend.reason};
+      continue;
+    }
+    // Retreat: fingers open, the placed object left behind (between the fingers, not checked).
+    PlanningScene rs = planningScene(ctx, ctx.held, false);
+    rs.finger_opening = travel;
+    auto retreating = makeChecker(o.checker, ctx.robot, rs, o.padding);
+    Pose T_up = T_place;
+    T_up.translation().z() += o.retreat_distance;
+    retreat = planCartesianLine(ctx.robot, *retreating, descend.waypoints.back(), T_up, ikNear(ctx), o.cartesian);
+    ctx.out.collision_checks += retreating->checks();
+    if (!retreat.ok) {
+      last = {"retreat", retreat.kind, retreat.reason};
+      continue;
+    }
+    q_preplace = pre.q();
+    found = true;
+    break;
+  }
+  if (!found) return done(last);
+  st->compute_seconds = since(t);
+  ctx.out.plan_place_time += st->compute_seconds;
+  const auto t_connect_start = Clock::now();
+  st = &ctx.stage("connect_place");
+  JointTrajectory t_connect;
+  Failure f = connect(ctx, "connect_place", *carrying, carrying_scene, q_lift, q_preplace, t_connect);
+  ctx.out.collision_checks += carrying->checks() + descending->checks();
+  auto done_connect = [&](const Failure& r) {
+    st->compute_seconds = since(t_connect_start);
+    ctx.out.plan_place_time += st->compute_seconds;
+    return r.ok() ? r : ctx.fail(r);
+  };
+  if (!f.ok()) return done_connect(f);
+  const double dt = ctx.hw.period();
+  JointTrajectory t_descend = cartesianTrajectory(ctx.robot, descend, ikNear(ctx), o.scaling, o.cartesian, dt);
+  JointTrajectory t_retreat = cartesianTrajectory(ctx.robot, retreat, ikNear(ctx), o.scaling, o.cartesian, dt);
+  if (t_descend.empty() || t_retreat.empty())
+    return done_connect({t_descend.empty() ? "place" : "retreat", FailureKind::kTimeParameterization,
+                         "no smooth time parameterization of the straight line"});
+  out = Plan{};
+  out.name = "place";
+  out.bucket = TimeBucket::kPlace;
+  out.steps.push_back(trajectoryStep("move_preplace", std::move(t_connect), 0.0, true));
+  out.steps.push_back(trajectoryStep("place", std::move(t_descend), 0.0, true));
+  out.q_end = descend.waypoints.back();
+  out.object = ctx.held;
+  out.T_world_target = T_world_object;
+  out.places = true;
+  if (release) {
+    PlanStep open = gripperStep("open_gripper_release", descend.waypoints.back(), travel);
+    open.release = true;
+    out.steps.push_back(open);
+    out.steps.push_back(markerStep("detach", PlanStep::Kind::kMarker));
+    out.steps.push_back(trajectoryStep("retreat", std::move(t_retreat), travel, false));
+    out.q_end = retreat.waypoints.back();
+  }
+  return done_connect({});
+}
+
+// ---- home, retreat, gripper ------------------------------------------------------------------
+
+Failure planHome(TrialContext& ctx, Plan& out) {
+  const TaskOptions& o = ctx.options;
+  const auto t = Clock::now();
+  StageRecord& st = ctx.stage("plan_home");
+  PlanningScene s = planningScene(ctx, -1, true);
+  if (ctx.held < 0) s.finger_opening = ctx.gripper_opening;
+  auto checker = makeChecker(o.checker, ctx.robot, s, o.padding);
+  out = Plan{};
+  out.name = "home";
+  out.bucket = TimeBucket::kHome;
+  out.q_end = ctx.robot.home();
+  Failure f;
+  if ((ctx.q_rest - ctx.robot.home()).cwiseAbs().maxCoeff() > 1e-9) {
+    JointTrajectory traj;
+    f = connect(ctx, "plan_home", *checker, s, ctx.q_rest, ctx.robot.home(), traj);
+    if (f.ok()) out.steps.push_back(trajectoryStep("return_home", std::move(traj), ctx.gripper_opening, ctx.held >= 0));
+  }
+  ctx.out.collision_checks += checker->checks();
+  st.compute_seconds = since(t);
+  ctx.out.return_home_time += st.compute_seconds;
+  return f.ok() ? f : ctx.fail(f);
+}
+
+Failure planRetreatUp(TrialContext& ctx, double distance, Plan& out) {
+  const TaskOptions& o = ctx.options;
+  const auto t = Clock::now();
+  StageRecord& st = ctx.stage("plan_safe");
+  // The object just let go of stays between the fingers: not checked against them.
+  const int just_placed = ctx.out.picks.empty() ? -1 : ctx.out.picks.back().object;
+  PlanningScene s = planningScene(ctx, just_placed, true);
+  if (ctx.held < 0) s.finger_opening = ctx.gripper_opening;
+  auto checker = makeChecker(o.checker, ctx.robot, s, o.padding);
+  Pose T_up = ctx.robot.fk(ctx.q_rest);
+  T_up.translation().z() += distance;
+  const CartesianPath up = planCartesianLine(ctx.robot, *checker, ctx.q_rest, T_up, ikNear(ctx), o.cartesian);
+  ctx.out.collision_checks += checker->checks();
+  Failure f;
+  JointTrajectory traj;
+  if (!up.ok) f = {"plan_safe", up.kind, up.reason};
+  else {
+    traj = cartesianTrajectory(ctx.robot, up, ikNear(ctx), o.scaling, o.cartesian, ctx.hw.period());
+    if (traj.empty()) f = {"plan_safe", FailureKind::kTimeParameterization, "no smooth time parameterization of the straight line"};
+  }
+  st.compute_seconds = since(t);
+  ctx.out.plan_place_time += st.compute_seconds;
+  if (!f.ok()) return ctx.fail(f);
+  out = Plan{};
+  out.name = "safe";
+  out.bucket = TimeBucket::kPlace;
+  out.steps.push_back(trajectoryStep("retreat", std::move(traj), ctx.gripper_opening, ctx.held >= 0));
+  out.q_end = up.waypoints.back();
+  return {};
+}
+
+Plan gripperPlan(TrialContext& ctx, double opening, const std::string& stage) {
+  Plan p;
+  const bool opens = opening > ctx.gripper_opening;
+  p.name = "gripper";
+  p.bucket = ctx.held >= 0 ? TimeBucket::kPlace : TimeBucket::kPick;
+  PlanStep s = gripperStep(stage, ctx.q_rest, opening);
+  s.release = opens && ctx.held >= 0;
+  p.steps.push_back(s);
+  p.q_end = ctx.q_rest;
+  return p;
+}
+
+// ---- execution -------------------------------------------------------------------------------
+
+std::unique_ptr<Motion> executePlan(TrialContext& ctx, const Plan& plan) {
+  return std::make_unique<PlanExecution>(ctx, plan);
+}
+
+Failure finishExecution(TrialContext& ctx, Motion& m) {
+  auto& e = static_cast<PlanExecution&>(m);
+  MM_DEMAND(!e.running());
+  if (e.state() == MotionState::kFailed) {
+    ctx.q_rest = ctx.hw.commandedPositions();
+    return ctx.fail(e.failure());
+  }
+  if (e.halted()) {
+    ctx.q_rest = ctx.hw.commandedPositions();
+    return ctx.fail({e.stageName(), FailureKind::kHalted, "halted by the behavior tree"});
+  }
+  ctx.q_rest = e.plan().q_end;
+  if (e.plan().places) ctx.over_target = e.plan().T_world_target;
+  return {};
+}
+
+Failure runMotion(TrialContext& ctx, std::unique_ptr<Motion> m) {
+  Motion& motion = ctx.executor.start(std::move(m));
+  while (motion.running()) ctx.executor.step();
+  return finishExecution(ctx, motion);
+}
+
+void runPickAndPlace(TrialContext& ctx, const Pose& T_world_target) {
+  auto chain = [&]() -> bool {
+    if (!detectObjects(ctx).ok()) return false;
+    const int i = mostAccessibleObject(ctx);
+    if (i < 0) return ctx.fail({"perception", FailureKind::kPerception, "no object detected"}), false;
+    const ObjectState target = ctx.objects[i];
+    GraspSolution grasp;
+    Plan plan;
+    return selectGrasp(ctx, target, graspCandidates(ctx, target), 0, grasp).ok() && planPick(ctx, grasp, plan).ok() &&
+           runMotion(ctx, executePlan(ctx, plan)).ok() && planPlace(ctx, T_world_target, true, plan).ok() &&
+           runMotion(ctx, executePlan(ctx, plan)).ok() && planHome(ctx, plan).ok() &&
+           runMotion(ctx, executePlan(ctx, plan)).ok();
+  };
+  finishTrial(ctx, chain());
+}
+
+// ---- the end of a trial ----------------------------------------------------------------------
+
+void finishTrial(TrialContext& ctx, bool tree_succeeded) {
+  TrialOutcome& out = ctx.out;
+  Hardware& hw = ctx.hw;
+  while (ctx.executor.busy()) ctx.executor.step();  // a stop still braking
+  // Let what was let go of come to rest, then measure it in the simulator, never assumed.
+  bool evaluated_ok = true;
+  if (!out.picks.empty() && !hw.unstable()) {
+    StageRecord& st = ctx.stage("evaluate");
+    HoldMotion hold(ctx.q_rest, ctx.gripper_opening, ctx.options.grasp_force, ctx.options.settle_time);
+    runToEnd(hw, hold);
+    st.sim_seconds = hold.duration();
+    if (hold.state() == MotionState::kFailed) {
+      Failure f = hold.failure();
+      f.stage = "evaluate";
+      ctx.fail(f);
+      evaluated_ok = false;
+    }
+  }
+  Failure evaluation;
+  for (PickRecord& p : out.picks) {
+    if (!evaluated_ok) break;
+    if (!p.at_target) {
+      p.reason = "let go of away from a place target";
+      if (evaluation.ok()) evaluation = {"evaluate", FailureKind::kDropped, "object " + std::to_string(p.object) + " " + p.reason};
+      continue;
+    }
+    const ObjectState o = hw.object(p.object);
+    const Vec3 pos = o.T_world_object.translation(), goal = p.T_world_target.translation();
+    p.position_error = (pos - goal).head<2>().norm();
+    p.orientation_error = symmetricAngle(o.T_world_object.linear(), p.T_world_target.linear(), yawSymmetry(o.half_size));
+    const double rest_error = std::abs(pos.z() - goal.z());
+    const double speed = hw.objectVelocity(p.object).norm();
+    if (p.position_error > ctx.options.tolerance_position)
+      p.reason = "object " + std::to_string(p.position_error * 1000) + " mm from the place target";
+    else if (p.orientation_error > ctx.options.tolerance_orientation)
+      p.reason = "object orientation off by " + std::to_string(p.orientation_error * 180 / M_PI) + " deg";
+    else if (rest_error > 0.01)
+      p.reason = "object not resting on the target surface (height off by " + std::to_string(rest_error * 1000) + " mm)";
+    else if (speed > 0.01)
+      p.reason = "object still moving (" + std::to_string(speed) + " m/s)";
+    p.placed = p.reason.empty();
+    if (!p.placed && evaluation.ok()) evaluation = {"evaluate", FailureKind::kPlacement, p.reason};
+    out.place_position_error = std::max(out.place_position_error, p.position_error);
+    out.place_orientation_error = std::max(out.place_orientation_error, p.orientation_error);
+  }
+  if (tree_succeeded && evaluated_ok) {
+    if (evaluation.ok() && out.picks.empty())
+      evaluation = {"evaluate", FailureKind::kPlacement, "the tree succeeded without placing any object"};
+    if (evaluation.ok() && ctx.held >= 0)
+      evaluation = {"evaluate", FailureKind::kPlacement, "the tree ended with an object in the hand"};
+    if (evaluation.ok()) {
+      out.success = true;
+      out.failure_stage.clear();
+      out.failure_reason.clear();
+      out.failure_kind = FailureKind::kNone;
+    } else {
+      ctx.fail(evaluation);
+    }
+  }
+  out.objects_left_in_bin = objectsInBin(ctx);
+  out.collision_count = hw.collisionEvents();
+  out.collision_log = hw.collisionLog();
+  out.sim_time = ctx.simTime();
+  out.compute_time = 0;
+  for (const StageRecord& s : out.stages) out.compute_time += s.compute_seconds;
+  out.total_time = out.perception_time + out.plan_pick_time + out.execute_pick_time + out.plan_place_time +
+                   out.execute_place_time + out.return_home_time;
+  for (RecordedFailure& r : out.failures)
+    if (r.handled) ++out.recovery_attempts;
+  out.recovery_needed = out.recovery_attempts > 0;
+  out.recovery_success = out.recovery_needed && out.success;
 }
 
 }  // namespace mm

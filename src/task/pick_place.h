@@ -1,91 +1,76 @@
-// Pick and place as a chain of stages, the shape of the source's MoveIt Task Constructor task:
-// CurrentState -> OpenGripper -> Connect(pre-grasp) -> GraspPose+IK -> Approach -> Close -> Attach
-// -> Lift -> Connect(pre-place) -> Place -> Open -> Detach -> Retreat, then home. Each stage is
-// timed (compute wall time apart from simulated time) and can fail with its name and a reason.
+// Pick and place as actions a behavior tree calls one at a time, the stages of the source's
+// MoveIt Task Constructor task: CurrentState -> OpenGripper -> Connect(pre-grasp) -> GraspPose+IK
+// -> Approach -> Close -> Attach -> Lift -> Connect(pre-place) -> Place -> Open -> Detach -> Retreat,
+// then home. Planning returns a plan or a typed failure (stage, kind, reason) and takes no
+// simulated time; execution is a Motion the executor advances period by period, which the tree can
+// halt. Each stage is recorded with its compute wall time apart from its simulated time.
 #pragma once
-#include <string>
+#include <memory>
 #include <vector>
 
-#include "core/geometry.h"
-#include "grasp/grasp.h"
-#include "kinematics/ik.h"
-#include "perception/perception.h"
-#include "planning/cartesian.h"
-#include "planning/planner.h"
-#include "planning/trajectory.h"
-#include "robot/robot_model.h"
+#include "task/trial_context.h"
 
 namespace mm {
 
-class Hardware;
+// ---- perception ---------------------------------------------------------------------------
 
-struct TaskOptions {
-  PlannerOptions planner;
-  double padding = 0.01;                 ///< [m] robot inflation against the world when planning
-  std::string checker = "spheres+fcl";   ///< collision checker: "spheres", "spheres+fcl" or "fcl"
-  std::string time_parameterization = "jerk_limited";  ///< joint paths: a name of timeParameterizationNames()
-  std::string optimizer = "none";        ///< "none" or "chomp" after the planner
-  LimitScaling scaling{0.5, 0.5};        ///< fraction of velocity / acceleration limits
-  CartesianOptions cartesian;
-  std::string ik_solver = "analytic";   ///< see ikSolverNames()
-  IkRequest ik;                          ///< tolerances and budgets of the grasp/place IK
-  GraspOptions grasp;
-  int max_grasp_candidates = 8;
-  double approach_distance = 0.10;       ///< [m] pre-grasp above the grasp
-  double lift_height = 0.15;             ///< [m]
-  double place_clearance = 0.005;        ///< [m] object bottom above the surface at release
-  double retreat_distance = 0.10;        ///< [m]
-  double grasp_force = 40.0;             ///< [N] per finger
-  double finger_margin = 0.012;          ///< [m] per finger beyond the object's half width when open
-  bool weld = false;                     ///< weld-on-grasp (attach plugin) instead of friction
-  double drop_distance = 0.03;           ///< [m] object this far from its in-hand pose = dropped
-  double settle_time = 0.5;              ///< [s] simulated rest before the evaluation
-  // Success criteria.
-  double tolerance_position = 0.02;      ///< [m] horizontal distance to the place target
-  double tolerance_orientation = 0.1745; ///< [rad] (10 degrees)
-};
+/// Perceives the objects in the bin into ctx.objects (without those already picked).
+Failure detectObjects(TrialContext& ctx);
+/// Index into ctx.objects of the object with the most room around it (bin picking takes the most
+/// accessible first), or -1 when there is none.
+int mostAccessibleObject(const TrialContext& ctx);
+/// The perceived object nearest `T_world_object` (within 5 cm), or -1.
+int perceivedObjectAt(const TrialContext& ctx, const Pose& T_world_object);
+/// Objects in the bin now (the held one is not), as the sensor's crop box sees them.
+int objectsInBin(const TrialContext& ctx);
 
-struct StageRecord {
-  std::string name;
-  bool ok = true;
-  double compute_seconds = 0;  ///< wall time of planning/IK/perception in this stage
-  double sim_seconds = 0;      ///< simulated execution time in this stage
-};
+// ---- pick ---------------------------------------------------------------------------------
 
-/// One trial's outcome. Times are [s]; errors [m] and [rad].
-struct TrialOutcome {
-  bool success = false;
-  std::string failure_stage, failure_reason;
-  bool sim_unstable = false;
-  bool dropped = false;
-  int target_object = -1;
-  int objects_in_bin = 0;
-  int grasp_candidates_tried = 0;
-  // The source's time breakdown (compute stages in wall time, execution in simulated time).
-  double perception_time = 0, plan_pick_time = 0, execute_pick_time = 0, plan_place_time = 0,
-         execute_place_time = 0, return_home_time = 0, total_time = 0;
-  double sim_time = 0;      ///< simulated seconds of the whole trial (deterministic)
-  double compute_time = 0;  ///< wall seconds of the blocking computation
-  double place_position_error = 0, place_orientation_error = 0;
-  int collision_count = 0;
-  std::vector<std::string> collision_log;
-  double max_tracking_error = 0;
-  long collision_checks = 0;
-  double grasp_opening = 0;  ///< [m] per finger after closing
-  // Recovery (filled by the behavior-tree layer when it runs the trial).
-  bool recovery_needed = false, recovery_success = false;
-  int recovery_attempts = 0;
-  std::vector<StageRecord> stages;
-};
+/// Top-down grasp candidates for `object`, best first (neighbours: the other perceived objects).
+std::vector<GraspCandidate> graspCandidates(TrialContext& ctx, const ObjectState& object);
+/// The source's filterGrasps for one candidate: IK of the pre-grasp, a collision-free pre-grasp,
+/// a straight approach and a straight lift with the object attached.
+Failure filterGrasp(TrialContext& ctx, const ObjectState& object, const GraspCandidate& candidate, GraspSolution& out);
+/// The first candidate (in order, from `first`, at most options.max_grasp_candidates tried) that
+/// passes filterGrasp and has not failed before in this trial. Records stage "grasp_pose_ik".
+Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vector<GraspCandidate>& candidates,
+                    size_t first, GraspSolution& out);
+/// The pick from where the arm rests: open, connect to the pre-grasp, approach, close, attach,
+/// lift. Records stage "connect_pregrasp".
+Failure planPick(TrialContext& ctx, const GraspSolution& grasp, Plan& out);
 
-struct PlaceTarget {
-  Pose T_world_object;  ///< where the object should rest
-};
+// ---- place and the rest -------------------------------------------------------------------
 
-/// Runs one pick-and-place on `hw`. `static_obstacles` are the table, bins and tray as the
-/// planner knows them. All randomness comes from streams of (campaign_seed, trial).
-TrialOutcome runPickAndPlace(Hardware& hw, const RobotModel& robot, const std::vector<Obstacle>& static_obstacles,
-                             const PlaceTarget& target, const TaskOptions& task, const PerceptionOptions& perception,
-                             uint64_t campaign_seed, uint64_t trial);
+/// The place of the held object so that it rests at `T_world_object`: connect to the pre-place,
+/// lower; with `release`, also open, detach and retreat. Records "place_pose_ik", "connect_place".
+Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, Plan& out);
+/// Home from where the arm rests. Records "plan_home".
+Failure planHome(TrialContext& ctx, Plan& out);
+/// A straight retreat of `distance` [m] up from where the arm rests. Records "plan_safe".
+Failure planRetreatUp(TrialContext& ctx, double distance, Plan& out);
+/// The gripper to `opening` [m] per finger, recorded as `stage` (letting go of a held object when
+/// opening).
+Plan gripperPlan(TrialContext& ctx, double opening, const std::string& stage);
+
+/// The plan's execution as a motion for the executor. Its end (success or failure) is recorded
+/// into the context when it finishes; call finishExecution() with it once it has ended.
+std::unique_ptr<Motion> executePlan(TrialContext& ctx, const Plan& plan);
+/// Books an ended execution: its failure (recorded with its stage), or its end as where the arm
+/// rests. Returns the failure (kNone on success; kHalted when halted).
+Failure finishExecution(TrialContext& ctx, Motion& execution);
+
+// ---- the end of a trial -------------------------------------------------------------------
+
+/// After the tree: lets the objects settle, measures each let-go object against its target in the
+/// simulator and fills the outcome (success, failure, errors, times, counts).
+void finishTrial(TrialContext& ctx, bool tree_succeeded);
+
+/// Runs `m` on the context's executor to its end (blocking: no tree above).
+Failure runMotion(TrialContext& ctx, std::unique_ptr<Motion> m);
+
+/// The whole pick and place as one blocking chain, no tree and no recovery: perceive, pick the most
+/// accessible object, place it to rest at `T_world_target`, go home, evaluate. The reference the
+/// trees are compared with.
+void runPickAndPlace(TrialContext& ctx, const Pose& T_world_target);
 
 }  // namespace mm

@@ -37,7 +37,7 @@ TEST(SimWorld, NanStateEndsAsUnstableWithAReason) {
   JointTrajectory t;
   t.q = t.qd = t.qdd = Eigen::MatrixXd::Zero(7, 3);
   for (int k = 0; k < 3; ++k) t.q.col(k) = panda().home();
-  const ExecutionResult r = executeTrajectory(*hw, t, 0.04, 40, {});
+  const ExecutionResult r = executeTrajectory(*hw, t, 0.04, 40, {}, panda());
   EXPECT_FALSE(r.ok);
   EXPECT_THAT(r.reason, ::testing::StartsWith("SIM_UNSTABLE"));
 }

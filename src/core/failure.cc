@@ -1,0 +1,26 @@
+#include "core/failure.h"
+
+namespace mm {
+
+const char* failureKindName(FailureKind kind) {
+  switch (kind) {
+    case FailureKind::kNone: return "none";
+    case FailureKind::kPerception: return "perception";
+    case FailureKind::kNoGrasp: return "no_grasp";
+    case FailureKind::kIk: return "ik";
+    case FailureKind::kCollision: return "collision";
+    case FailureKind::kPlanning: return "planning";
+    case FailureKind::kTimeParameterization: return "time_parameterization";
+    case FailureKind::kGraspMissed: return "grasp_missed";
+    case FailureKind::kDropped: return "dropped";
+    case FailureKind::kSimUnstable: return "sim_unstable";
+    case FailureKind::kPlacement: return "placement";
+    case FailureKind::kHalted: return "halted";
+    case FailureKind::kTimeout: return "timeout";
+    case FailureKind::kTree: return "tree";
+    case FailureKind::kPrecondition: return "precondition";
+  }
+  return "unknown";
+}
+
+}  // namespace mm

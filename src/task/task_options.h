@@ -1,0 +1,40 @@
+// The task layer's tunables (filled from the experiment's declared parameters).
+#pragma once
+#include <string>
+
+#include "grasp/grasp.h"
+#include "kinematics/ik.h"
+#include "planning/cartesian.h"
+#include "planning/planner.h"
+#include "planning/trajectory.h"
+
+namespace mm {
+
+struct TaskOptions {
+  PlannerOptions planner;
+  double padding = 0.01;                 ///< [m] robot inflation against the world when planning
+  std::string checker = "spheres+fcl";   ///< collision checker: "spheres", "spheres+fcl" or "fcl"
+  std::string time_parameterization = "jerk_limited";  ///< joint paths: a name of timeParameterizationNames()
+  std::string optimizer = "none";        ///< "none" or "chomp" after the planner
+  LimitScaling scaling{0.5, 0.5};        ///< fraction of velocity / acceleration limits
+  CartesianOptions cartesian;
+  std::string ik_solver = "analytic";   ///< see ikSolverNames()
+  IkRequest ik;                          ///< tolerances and budgets of the grasp/place IK
+  GraspOptions grasp;
+  int max_grasp_candidates = 8;
+  double approach_distance = 0.10;       ///< [m] pre-grasp above the grasp
+  double lift_height = 0.15;             ///< [m]
+  double place_clearance = 0.005;        ///< [m] object bottom above the surface at release
+  double retreat_distance = 0.10;        ///< [m]
+  double grasp_force = 40.0;             ///< [N] per finger
+  double finger_margin = 0.012;          ///< [m] per finger beyond the object's half width when open
+  bool weld = false;                     ///< weld-on-grasp (attach plugin) instead of friction
+  double drop_distance = 0.03;           ///< [m] object this far from its in-hand pose = dropped
+  double settle_time = 0.5;              ///< [s] simulated rest before the evaluation
+  double max_tracking_error = 0.05;      ///< [rad] IsSystemHealthy fails beyond this
+  // Success criteria.
+  double tolerance_position = 0.02;      ///< [m] horizontal distance to the place target
+  double tolerance_orientation = 0.1745; ///< [rad] (10 degrees)
+};
+
+}  // namespace mm

@@ -1,0 +1,89 @@
+#include "task/trial_context.h"
+
+#include "core/error.h"
+#include "sim/hardware.h"
+
+namespace mm {
+
+// ---- executor --------------------------------------------------------------------------------
+
+Executor::Step Executor::step() {
+  if (active_ && active_->running()) {
+    if (!active_->command(hw_)) return Step::kEndedWithoutStep;
+    hw_.step();
+    active_->observe(hw_);
+    return active_->running() ? Step::kStepped : Step::kEnded;
+  }
+  // Idle: hold the arm where it was last sent, at rest.
+  const VecX q = hw_.commandedPositions(), zero = VecX::Zero(q.size());
+  hw_.write(q, zero, zero);
+  hw_.step();
+  return Step::kStepped;
+}
+
+Motion& Executor::start(std::unique_ptr<Motion> m) {
+  MM_DEMAND(!busy());
+  active_ = std::move(m);
+  return *active_;
+}
+
+void Executor::halt() {
+  if (busy()) active_->halt(hw_);
+}
+
+// ---- context ---------------------------------------------------------------------------------
+
+TrialContext::TrialContext(Hardware& hw_, const RobotModel& robot_, const std::vector<Obstacle>& statics_,
+                           const TaskOptions& task, const PerceptionOptions& perception_, uint64_t campaign_seed,
+                           uint64_t trial)
+    : hw(hw_), robot(robot_), statics(statics_), options(task), perception(perception_),
+      rng_perception(Rng::stream(campaign_seed, trial, Purpose::kPerception)),
+      rng_ik(Rng::stream(campaign_seed, trial, Purpose::kIk)),
+      rng_plan(Rng::stream(campaign_seed, trial, Purpose::kPlanner)),
+      ik(makeIkSolver(task.ik_solver, robot_)), ik_near(makeIkSolver("dls", robot_)), executor(hw_),
+      t_start(hw_.time()), q_rest(hw_.jointPositions()),
+      gripper_opening(robot_.spec().gripper.travel) {}  // the hardware starts with the gripper commanded open
+
+TrialContext::~TrialContext() = default;
+
+StageRecord& TrialContext::stage(const std::string& name) {
+  out.stages.push_back({name, true, 0, 0});
+  return out.stages.back();
+}
+
+Failure TrialContext::fail(const Failure& f) {
+  out.failure_stage = f.stage;
+  out.failure_reason = f.reason;
+  out.failure_kind = f.kind;
+  if (f.kind == FailureKind::kSimUnstable) out.sim_unstable = true;
+  if (f.kind == FailureKind::kDropped) out.dropped = true;
+  if (!out.stages.empty()) out.stages.back().ok = false;
+  out.failures.push_back({f, simTime(), false});
+  return f;
+}
+
+void TrialContext::actionStarted() {
+  for (RecordedFailure& r : out.failures) r.handled = true;
+}
+
+double& TrialContext::computeBucket(TimeBucket b) {
+  switch (b) {
+    case TimeBucket::kPick: return out.plan_pick_time;
+    case TimeBucket::kPlace: return out.plan_place_time;
+    case TimeBucket::kHome: break;
+  }
+  return out.return_home_time;
+}
+
+double& TrialContext::executeBucket(TimeBucket b) {
+  switch (b) {
+    case TimeBucket::kPick: return out.execute_pick_time;
+    case TimeBucket::kPlace: return out.execute_place_time;
+    case TimeBucket::kHome: break;
+  }
+  return out.return_home_time;
+}
+
+double TrialContext::simTime() const { return hw.time() - t_start; }
+
+}  // namespace mm

@@ -1,0 +1,139 @@
+// What the actions of one trial share: the hardware and the executor that advances it on
+// simulated time, what the robot knows (perceived objects, the object in its hand, where its
+// last motion ended), the current plan, and the trial's record. BT.CPP's SubTrees have isolated
+// blackboards and the source's XML remaps no trial state, so this lives beside the tree; the
+// values the XML names travel through ports.
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/failure.h"
+#include "core/geometry.h"
+#include "core/rng.h"
+#include "grasp/grasp.h"
+#include "kinematics/ik.h"
+#include "perception/perception.h"
+#include "planning/cartesian.h"
+#include "robot/robot_model.h"
+#include "sim/controllers.h"
+#include "task/task_options.h"
+#include "task/trial_outcome.h"
+
+namespace mm {
+
+class Hardware;
+
+/// One step of a plan: a joint trajectory, a gripper motion, attaching the grasped object, or a
+/// marker (a stage recorded without motion, as MTC's Detach).
+struct PlanStep {
+  enum class Kind { kTrajectory, kGripper, kAttach, kMarker };
+  Kind kind = Kind::kTrajectory;
+  std::string stage;            ///< recorded under this name
+  JointTrajectory trajectory;   ///< kTrajectory
+  double opening = 0;           ///< [m] per finger: the gripper's goal (kGripper) or its setting during a trajectory
+  VecX q_hold;                  ///< kGripper: the arm is held here
+  bool holding = false;         ///< kTrajectory: watch the held object for a drop
+  bool release = false;         ///< kGripper: lets go of the held object (weld off first)
+  double expected_opening = -1; ///< kGripper closing on an object: its half width across the fingers [m]
+};
+
+/// What a trial's compute and execution times are booked under (the source's breakdown).
+enum class TimeBucket { kPick, kPlace, kHome };
+
+/// A planned motion (the source's MTC solution): steps executed in order, from q_start to q_end.
+struct Plan {
+  std::string name;  ///< "pick", "place", "home", "safe", "gripper"
+  std::vector<PlanStep> steps;
+  TimeBucket bucket = TimeBucket::kPick;
+  VecX q_end;                              ///< where the arm ends (as planned)
+  int object = -1;                         ///< pick: the object grasped; place: the object carried
+  Vec3 object_half = Vec3::Zero();         ///< pick: its half sizes [m]
+  Pose T_tcp_object = Pose::Identity();    ///< pick: the object in the hand, as planned
+  Pose T_world_grasp = Pose::Identity();   ///< pick: the TCP at the grasp
+  int grasp_candidates_tried = 0;
+  Pose T_world_target = Pose::Identity();  ///< place: where the object will rest
+  bool places = false;                     ///< place: ends with the object over its target
+};
+
+/// Advances the hardware one control period at a time with the active motion's setpoints, or
+/// holds the arm where it was last sent when none is active.
+class Executor {
+ public:
+  explicit Executor(Hardware& hw) : hw_(hw) {}
+  enum class Step {
+    kStepped,           ///< one period of simulated time passed
+    kEnded,             ///< the active motion ended during the period
+    kEndedWithoutStep,  ///< the active motion ended before using the period (no time passed)
+  };
+  Step step();
+  /// Starts `m`; the arm must not be busy. The motion is owned here until the next start.
+  Motion& start(std::unique_ptr<Motion> m);
+  /// A motion is running (perhaps a halted one still braking).
+  bool busy() const { return active_ && active_->running(); }
+  /// Controlled stop of the running motion (it keeps running until at rest).
+  void halt();
+  const Motion* active() const { return active_.get(); }
+
+ private:
+  Hardware& hw_;
+  std::unique_ptr<Motion> active_;
+};
+
+/// A grasp that passed the filters (reachable pre-grasp free of collision, straight approach and
+/// lift feasible): what SelectBestGrasp chooses and PlanMTCPick plans from.
+struct GraspSolution {
+  ObjectState object;
+  GraspCandidate candidate;
+  int candidate_index = -1;   ///< position in the candidate list it came from
+  int candidates_tried = 0;   ///< candidates filtered to find it
+  VecX q_pre, q_grasp;
+  CartesianPath approach, lift;
+  Pose T_tcp_object = Pose::Identity();
+  double pre_opening = 0.04;  ///< [m] per finger before the approach
+};
+
+class TrialContext {
+ public:
+  TrialContext(Hardware& hw, const RobotModel& robot, const std::vector<Obstacle>& statics, const TaskOptions& task,
+               const PerceptionOptions& perception, uint64_t campaign_seed, uint64_t trial);
+  ~TrialContext();
+
+  Hardware& hw;
+  const RobotModel& robot;
+  const std::vector<Obstacle>& statics;  ///< table, bins, tray as the planner knows them
+  const TaskOptions& options;
+  const PerceptionOptions& perception;
+  Rng rng_perception, rng_ik, rng_plan;
+  std::unique_ptr<IkSolver> ik, ik_near;
+  Executor executor;
+  TrialOutcome out;
+  double t_start = 0;  ///< [s] simulated time at the trial's start
+
+  // What the robot knows.
+  std::vector<ObjectState> objects;  ///< the last perception (world frame), objects not yet picked
+  std::vector<int> picked;           ///< pool indices of objects picked (held or let go)
+  int held = -1;                     ///< pool index of the object in the hand, -1 for none
+  Pose T_tcp_held = Pose::Identity();        ///< the held object in the hand as planned
+  Pose T_tcp_held_actual = Pose::Identity(); ///< as measured when the fingers closed (drop check)
+  PickRecord held_record;            ///< filled while holding, moved to out.picks on release
+  VecX q_rest;                       ///< where the arm rests: the last plan's end, or where it stopped
+  double gripper_opening = 0;        ///< [m] the gripper's last goal
+  std::optional<Plan> plan;          ///< the current plan (PlanMTCPick / PlanMTCPlace → ExecuteMTCPlan)
+  std::optional<Pose> over_target;   ///< set when a place plan has brought the held object over its target
+  std::vector<Pose> failed_grasps;   ///< grasps whose execution failed (not chosen again)
+
+  // Bookkeeping.
+  StageRecord& stage(const std::string& name);
+  /// Records an action's failure (the trial's failure unless the tree recovers) and returns it.
+  Failure fail(const Failure& f);
+  /// An action is starting: failures recorded so far were handled by the tree.
+  void actionStarted();
+  double& computeBucket(TimeBucket b);
+  double& executeBucket(TimeBucket b);
+  double simTime() const;  ///< [s] since the trial started
+};
+
+}  // namespace mm

@@ -1,0 +1,74 @@
+// One trial's record: what happened, where it failed and why, how long each stage took.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "core/failure.h"
+#include "core/pose.h"
+
+namespace mm {
+
+struct StageRecord {
+  std::string name;
+  bool ok = true;
+  double compute_seconds = 0;  ///< wall time of planning/IK/perception in this stage
+  double sim_seconds = 0;      ///< simulated execution time in this stage
+};
+
+/// One object the robot let go of, and where it ended up.
+struct PickRecord {
+  int object = -1;                 ///< index in the scene's object pool
+  Vec3 half_size = Vec3::Zero();   ///< [m] as perceived
+  Pose T_world_target = Pose::Identity();  ///< where it should rest
+  bool at_target = false;          ///< released by a place (not dropped elsewhere)
+  bool placed = false;             ///< evaluated within the tolerances
+  double position_error = 0;       ///< [m] horizontal
+  double orientation_error = 0;    ///< [rad] about the object's symmetry
+  int grasp_candidates_tried = 0;
+  double grasp_opening = 0;        ///< [m] per finger after closing
+  std::string reason;              ///< why it is not placed
+};
+
+/// A failure an action reported during the trial, and whether the tree went on after it.
+struct RecordedFailure {
+  Failure failure;
+  double sim_time = 0;   ///< [s] since the trial started
+  bool handled = false;  ///< the tree started another action after it (a recovery attempt)
+};
+
+/// One trial's outcome. Times are [s]; errors [m] and [rad].
+struct TrialOutcome {
+  bool success = false;
+  std::string failure_stage, failure_reason;
+  FailureKind failure_kind = FailureKind::kNone;
+  bool sim_unstable = false;
+  bool dropped = false;
+  int target_object = -1;       ///< the first object picked
+  int objects_in_bin = 0;       ///< detected at the first perception
+  int objects_left_in_bin = 0;  ///< at the end
+  int grasp_candidates_tried = 0;
+  // The source's time breakdown (compute stages in wall time, execution in simulated time).
+  double perception_time = 0, plan_pick_time = 0, execute_pick_time = 0, plan_place_time = 0,
+         execute_place_time = 0, return_home_time = 0, total_time = 0;
+  double sim_time = 0;      ///< simulated seconds of the whole trial (deterministic)
+  double compute_time = 0;  ///< wall seconds of the blocking computation
+  double place_position_error = 0, place_orientation_error = 0;  ///< the worst placed object's
+  int collision_count = 0;
+  std::vector<std::string> collision_log;
+  double max_tracking_error = 0;
+  long collision_checks = 0;
+  double grasp_opening = 0;  ///< [m] per finger after the last close
+  std::vector<PickRecord> picks;  ///< every object let go of, in order
+  std::vector<RecordedFailure> failures;
+  // Recovery: failures the tree went on after (see RecordedFailure::handled).
+  bool recovery_needed = false, recovery_success = false;
+  int recovery_attempts = 0;
+  // The behavior tree.
+  std::string tree;         ///< the tree's ID
+  std::string tree_status;  ///< SUCCESS, FAILURE or TIMEOUT
+  long ticks = 0;
+  int reported_total = -1;  ///< ReportCompletion's total, -1 if never reported
+  std::vector<StageRecord> stages;
+};
+
+}  // namespace mm

@@ -1,0 +1,72 @@
+// The quickstart's 100 trials of seed 1 against the outcomes recorded from the pick-and-place
+// chain before the task layer became actions (tests/reference/quickstart_seed1_chain.jsonl):
+// success, failure stage, target, place errors, collisions, simulated times and the stages with
+// their simulated durations must be the same.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+namespace mm {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+std::vector<json> readJsonl(const fs::path& file) {
+  std::vector<json> v;
+  std::ifstream in(file);
+  for (std::string line; std::getline(in, line);) v.push_back(json::parse(line));
+  std::sort(v.begin(), v.end(), [](const json& a, const json& b) { return a["trial"] < b["trial"]; });
+  return v;
+}
+
+std::string stagesText(const json& t) {
+  std::ostringstream s;
+  for (const json& st : t["stages"]) {
+    if (s.tellp() > 0) s << " ";
+    s << st["name"].get<std::string>() << ":" << std::lround(st["sim_seconds"].get<double>() * 1000)
+      << (st["ok"].get<bool>() ? "" : "!");
+  }
+  return s.str();
+}
+
+// `extra` selects how the campaign runs (the tree, once there is one); outcomes must not change.
+void expectSameAsReference(const std::string& extra) {
+  const fs::path out = fs::temp_directory_path() / ("mm_reference_" + std::to_string(getpid()));
+  fs::remove_all(out);
+  const std::string cmd = std::string(MINIMANIP_BINARY) +
+                          " run experiments/quickstart.yaml --trials 100 --seed 1 --jobs 2 --set progress=none " +
+                          extra + " --out " + out.string() + " > /dev/null 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  const auto ref = readJsonl("tests/reference/quickstart_seed1_chain.jsonl");
+  const auto got = readJsonl(out / "trials.jsonl");
+  ASSERT_EQ(ref.size(), 100u);
+  ASSERT_EQ(got.size(), ref.size());
+  for (size_t i = 0; i < ref.size(); ++i) {
+    const json& r = ref[i];
+    const json& t = got[i];
+    SCOPED_TRACE("trial " + std::to_string(i));
+    for (const char* k : {"success", "failure_stage", "target_object", "objects_in_bin", "grasp_candidates_tried",
+                          "collision_count", "dropped", "sim_unstable"})
+      EXPECT_EQ(r[k], t[k]) << k;
+    for (const char* k : {"grasp_opening", "place_position_error", "place_orientation_error", "max_tracking_error"})
+      EXPECT_NEAR(r[k].get<double>(), t[k].get<double>(), 1e-9) << k;
+    EXPECT_NEAR(r["sim_time"].get<double>(), t["sim_time"].get<double>(), 1e-6);
+    for (const char* k : {"execute_pick_time", "execute_place_time"})
+      EXPECT_NEAR(r[k].get<double>(), t["cycle"][k].get<double>(), 1e-6) << k;
+    EXPECT_EQ(r["stages"].get<std::string>(), stagesText(t));
+  }
+  fs::remove_all(out);
+}
+
+TEST(Reference, QuickstartSeed1MatchesTheRecordedChain) { expectSameAsReference(""); }
+
+}  // namespace
+}  // namespace mm
