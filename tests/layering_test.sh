@@ -6,10 +6,12 @@ set -u
 cd "$(dirname "$0")/../src"
 fail=0
 for layer in core robot kinematics planning grasp perception; do
-  hits=$(grep -nE '#include [<"](mujoco/|sim/|task/|campaign/|cli/)' "$layer"/*.h "$layer"/*.cc 2>/dev/null)
+  hits=$(grep -nE '#include [<"](mujoco/|sim/|task/|bt/|campaign/|cli/)' "$layer"/*.h "$layer"/*.cc 2>/dev/null)
   if [ -n "$hits" ]; then echo "layer $layer includes a layer above it or MuJoCo:"; echo "$hits"; fail=1; fi
 done
-for layer in core robot sim kinematics planning grasp perception task; do
+hits=$(grep -nE '#include [<"](bt/|campaign/|cli/|mujoco/)' task/*.h task/*.cc sim/*.h 2>/dev/null)
+if [ -n "$hits" ]; then echo "task/ includes the behavior-tree layer, campaign/, cli/ or MuJoCo:"; echo "$hits"; fail=1; fi
+for layer in core robot sim kinematics planning grasp perception task bt; do
   hits=$(grep -nE '#include [<"](campaign/|cli/)' "$layer"/*.h "$layer"/*.cc 2>/dev/null)
   if [ -n "$hits" ]; then echo "layer $layer includes campaign/ or cli/:"; echo "$hits"; fail=1; fi
 done
