@@ -680,10 +680,15 @@ class RunOnce final : public DecoratorNode {
 };
 
 // Precondition: ticks the child while `if` holds (checked only while the child is not running),
-// else returns `else`.
+// else returns `else`. One extension over BT.CPP 4.10: an `if` read from the blackboard ("{ok}",
+// as the source's ExecuteGrasp tree writes it) is parsed when the node is ticked, not when it is
+// built; BT.CPP parses it in the constructor, finds the entry still empty and refuses the tree
+// ("Missing parameter [if] in Precondition").
 class Precondition final : public DecoratorNode {
  public:
-  Precondition(const std::string& name, const NodeConfig& config) : DecoratorNode(name, config) { load(); }
+  Precondition(const std::string& name, const NodeConfig& config) : DecoratorNode(name, config) {
+    if (!blackboardKey(config.input_ports.at("if"), "if")) load();
+  }
   static PortsList providedPorts() {
     return {inputPort<std::string>("if", ""),
             inputPort<NodeStatus>("else", "FAILURE", "Return status if condition is false")};

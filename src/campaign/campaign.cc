@@ -5,7 +5,9 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <algorithm>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -17,6 +19,7 @@
 #include <thread>
 
 #include "campaign/stats.h"
+#include "campaign/trial.h"
 #include "core/error.h"
 #include "planning/planner.h"
 #include "sim/hardware.h"
@@ -31,7 +34,8 @@ constexpr int kSchema = 1;
 
 json nullable(const std::string& s) { return s.empty() ? json(nullptr) : json(s); }
 
-json trialJson(const Experiment& e, uint64_t trial, const SpawnResult& spawn, const TrialOutcome& o) {
+json trialJson(const Experiment& e, uint64_t trial, const SpawnResult& spawn, const TrialOutcome& o,
+               const std::string& bt_log) {
   json j;
   j["schema"] = kSchema;
   j["trial"] = trial;
@@ -40,6 +44,10 @@ json trialJson(const Experiment& e, uint64_t trial, const SpawnResult& spawn, co
   j["success"] = o.success;
   j["failure_stage"] = nullable(o.failure_stage);
   j["failure_reason"] = nullable(o.failure_reason);
+  j["failure_kind"] = o.success ? json(nullptr) : json(failureKindName(o.failure_kind));
+  j["tree"] = nullable(o.tree);
+  j["tree_status"] = nullable(o.tree_status);
+  j["ticks"] = o.ticks;
   j["sim_unstable"] = o.sim_unstable;
   j["dropped"] = o.dropped;
   j["objects_in_bin"] = spawn.active.size();
@@ -62,6 +70,30 @@ json trialJson(const Experiment& e, uint64_t trial, const SpawnResult& spawn, co
   j["max_tracking_error"] = o.max_tracking_error;
   j["collision_checks"] = o.collision_checks;
   j["recovery"] = {{"needed", o.recovery_needed}, {"success", o.recovery_success}, {"attempts", o.recovery_attempts}};
+  json picks = json::array();
+  for (const PickRecord& p : o.picks)
+    picks.push_back({{"object", p.object},
+                     {"at_target", p.at_target},
+                     {"placed", p.placed},
+                     {"position_error", p.position_error},
+                     {"orientation_error", p.orientation_error},
+                     {"target", {p.T_world_target.translation().x(), p.T_world_target.translation().y(), p.T_world_target.translation().z()}},
+                     {"grasp_candidates_tried", p.grasp_candidates_tried},
+                     {"grasp_opening", p.grasp_opening},
+                     {"reason", nullable(p.reason)}});
+  j["picks"] = picks;
+  j["objects_placed"] = std::count_if(o.picks.begin(), o.picks.end(), [](const PickRecord& p) { return p.placed; });
+  j["objects_left_in_bin"] = o.objects_left_in_bin;
+  j["reported_total"] = o.reported_total >= 0 ? json(o.reported_total) : json(nullptr);
+  json failures = json::array();
+  for (const RecordedFailure& f : o.failures)
+    failures.push_back({{"stage", f.failure.stage},
+                        {"kind", failureKindName(f.failure.kind)},
+                        {"reason", f.failure.reason},
+                        {"sim_time", f.sim_time},
+                        {"handled", f.handled}});
+  j["failures"] = failures;
+  j["bt_log"] = nullable(bt_log);
   json stages = json::array();
   for (const auto& s : o.stages)
     stages.push_back({{"name", s.name}, {"ok", s.ok}, {"sim_seconds", s.sim_seconds}, {"compute_seconds", s.compute_seconds}});
@@ -87,6 +119,13 @@ std::string cpuModel() {
   return "unknown";
 }
 
+std::string localDateTime() {
+  const std::time_t now = std::time(nullptr);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%d %H:%M:%S", std::localtime(&now));
+  return buf;
+}
+
 std::string hostName() {
   char buf[256] = "";
   gethostname(buf, sizeof buf - 1);
@@ -100,7 +139,8 @@ struct Summary {
 
 Summary summarize(const Experiment& e, const std::vector<json>& trials, double wall_seconds, const CampaignOptions& co) {
   const long n = static_cast<long>(trials.size());
-  long ok = 0, first_pass = 0, needed = 0, recovered = 0, unstable = 0, dropped = 0, collisions = 0;
+  long ok = 0, first_pass = 0, needed = 0, recovered = 0, unstable = 0, dropped = 0, collisions = 0, placed = 0,
+       left = 0, cleared = 0, timeouts = 0;
   std::vector<double> cycle, sim, place_mm, orient_deg, track;
   std::map<std::string, std::vector<double>> breakdown;
   std::map<std::string, long> failures;
@@ -110,6 +150,10 @@ Summary summarize(const Experiment& e, const std::vector<json>& trials, double w
     const bool s = t["success"];
     const bool rn = t["recovery"]["needed"];
     collisions += t["collision_count"].get<long>();
+    placed += t["objects_placed"].get<long>();
+    left += t["objects_left_in_bin"].get<long>();
+    cleared += t["objects_left_in_bin"].get<long>() == 0;
+    timeouts += t["tree_status"] == "TIMEOUT";
     unstable += t["sim_unstable"].get<bool>();
     dropped += t["dropped"].get<bool>();
     track.push_back(t["max_tracking_error"]);
@@ -156,6 +200,11 @@ Summary summarize(const Experiment& e, const std::vector<json>& trials, double w
   j["sim_unstable"] = unstable;
   j["dropped"] = dropped;
   j["failure_stages"] = failures;
+  j["tree"] = e.tree_path;
+  j["objects_placed"] = placed;
+  j["objects_left_in_bin"] = left;
+  j["bins_cleared"] = cleared;
+  j["timeouts"] = timeouts;
   j["wall_seconds"] = wall_seconds;
   j["trials_per_second"] = wall_seconds > 0 ? n / wall_seconds : 0.0;
   j["environment"] = {{"minimanip", MINIMANIP_VERSION},
@@ -187,6 +236,7 @@ Summary summarize(const Experiment& e, const std::vector<json>& trials, double w
   t << std::string(64, '-') << "\n" << std::setprecision(2);
   t << "  Place Error:       " << pm.mean << " mm (mean), " << pm.max << " mm (max); " << od.mean << " deg (mean)\n";
   t << "  Collisions:        " << collisions << " events in " << n << " trials\n";
+  t << "  Objects placed:    " << placed << " (" << left << " left in bins; " << cleared << " of " << n << " bins empty)\n";
   t << "  Max Tracking Err:  " << std::setprecision(4) << tr.max << " rad\n";
   if (!failures.empty()) {
     t << std::string(64, '-') << "\n  Failure Analysis:\n";
@@ -246,9 +296,19 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
   perception.T_world_crop = T_bin;
   perception.crop_half = bin_half;
 
+  const bt::TreeDocument tree = loadTree(e);
+  Cell cell;
+  cell.robot = &robot;
+  cell.statics = statics;
+  cell.perception = perception;
+  cell.T_world_place_target = T_target;
+
   const fs::path out(co.out_dir);
   fs::create_directories(out);
   for (const char* f : {"trials.jsonl", "summary.json", "config.resolved.yaml"}) fs::remove(out / f);
+  fs::remove_all(out / "bt");
+  if (e.bt_log != "none") fs::create_directories(out / "bt");
+  const std::string date = localDateTime();
   writeAtomically(out / "config.resolved.yaml", "# " + co.command_line + "\n" + e.params.toYaml());
   std::ofstream jsonl(out / "trials.jsonl", std::ios::app);
 
@@ -261,22 +321,22 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
   std::exception_ptr error;
   auto worker = [&](SimWorld& world) {
     try {
+      TrialRunner runner(e, cell, tree, (out / "bt").string(), date);
       for (long i; (i = next++) < e.trials;) {
         const uint64_t trial = static_cast<uint64_t>(i);
         Rng rng_scene = Rng::stream(e.seed, trial, Purpose::kScene);
         const SpawnResult spawn = spawnObjects(world, robot, T_bin, bin_half, rng_scene, e.spawn);
         TrialOutcome o;
+        std::string bt_log;
         if (!spawn.ok) {
           o.failure_stage = "spawn";
           o.failure_reason = spawn.reason;
         } else {
           auto hw = e.hardware == "mock" ? makeMockHardware(world, robot, spawn.active)
                                          : makeMujocoHardware(world, robot, spawn.active);
-          TrialContext ctx(*hw, robot, statics, e.task, perception, e.seed, trial);
-          runPickAndPlace(ctx, T_target);
-          o = std::move(ctx.out);
+          o = runner.run(*hw, trial, bt_log);
         }
-        json j = trialJson(e, trial, spawn, o);
+        json j = trialJson(e, trial, spawn, o, bt_log.empty() ? "" : fs::relative(bt_log, out).string());
         std::lock_guard<std::mutex> lock(mu);
         jsonl << j.dump() << "\n";
         jsonl.flush();

@@ -14,8 +14,15 @@ std::vector<ParamDecl> experimentParams() {
       {"trials", K::kInt, "100", 1, 1e7, {}, "", "number of trials (--trials overrides)"},
       {"seed", K::kInt, "1", 0, 9.007e15, {}, "", "campaign seed; every random choice derives from (seed, trial, purpose)"},
       {"hardware", K::kChoice, "mujoco", -inf, inf, {"mujoco", "mock"}, "", "mujoco: physics; mock: joints follow commands exactly"},
-      {"robot", K::kString, "../robots/panda/panda.yaml", -inf, inf, {}, "", "robot YAML, relative to this file"},
-      {"scene", K::kString, "../scenes/bin_table.xml", -inf, inf, {}, "", "scene MJCF (includes the robot), relative to this file"},
+      {"robot", K::kString, "robots/panda/panda.yaml", -inf, inf, {}, "", "robot YAML (a path in the file is relative to the file; the default, to the project root)"},
+      {"scene", K::kString, "scenes/bin_table.xml", -inf, inf, {}, "", "scene MJCF (includes the robot); paths as for robot"},
+      {"tree", K::kString, "experiments/trees/mini_manip.xml", -inf, inf, {}, "", "behavior tree (BT.CPP v4 XML) run for each trial; paths as for robot. The default is the source's MiniManip tree"},
+      {"bt.tick_period", K::kDouble, "0.1", 0.001, 10.0, {}, "s", "simulated time between ticks (an action that finishes wakes the tree at once)"},
+      {"bt.time_budget", K::kDouble, "120", 1.0, 1e6, {}, "s", "simulated time a trial may take; a tree still running then ends as TIMEOUT"},
+      {"bt.log", K::kChoice, "failed_or_recovered", -inf, inf, {"none", "failed_or_recovered", "all"}, "", "which trials keep their tree's transitions as results/<name>/bt/trial_<N>.db3 (BT.CPP's SqliteLogger schema, Groot2)"},
+      {"place.rows", K::kInt, "1", 1, 20, {}, "", "rows (along y) of the place grid ComputePlacePosition fills, centred on the scene's place_target, nearest slots first"},
+      {"place.columns", K::kInt, "3", 1, 20, {}, "", "columns (along x) of the place grid (the quickstart tray holds a row of three 5 cm cubes)"},
+      {"place.pitch", K::kDouble, "0.06", 0.02, 0.5, {}, "m", "distance between neighbouring slots of the place grid"},
       {"jobs", K::kInt, "1", 1, 64, {}, "", "parallel workers (outcomes do not depend on it)"},
       {"progress", K::kChoice, "auto", -inf, inf, {"auto", "bar", "lines", "none"}, "", "progress display; auto: a bar on a terminal, lines otherwise"},
       {"objects.count_min", K::kInt, "1", 1, 6, {}, "", "fewest objects in the bin"},
@@ -68,9 +75,23 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
   e.trials = p.getInt("trials");
   e.seed = static_cast<uint64_t>(p.getInt("seed"));
   e.hardware = p.getString("hardware");
+  // A path written in the file is relative to the file; one given by --set, to the working
+  // directory; a default, to the project root (so a copied experiment file runs anywhere).
   const auto dir = std::filesystem::path(path).parent_path();
-  e.robot_path = (dir / p.getString("robot")).lexically_normal().string();
-  e.scene_path = (dir / p.getString("scene")).lexically_normal().string();
+  auto resolve = [&](const std::string& key) {
+    const std::filesystem::path v = p.getString(key);
+    if (v.is_absolute()) return v.lexically_normal().string();
+    for (const std::string& s : sets)
+      if (s.rfind(key + "=", 0) == 0) return v.lexically_normal().string();
+    if (p.wasSet(key)) return (dir / v).lexically_normal().string();
+    return (std::filesystem::path(MINIMANIP_SOURCE_DIR) / v).lexically_normal().string();
+  };
+  e.robot_path = resolve("robot");
+  e.scene_path = resolve("scene");
+  e.tree_path = resolve("tree");
+  e.tree_run.tick_period = p.getDouble("bt.tick_period");
+  e.tree_run.time_budget = p.getDouble("bt.time_budget");
+  e.bt_log = p.getString("bt.log");
   e.jobs = static_cast<int>(p.getInt("jobs"));
   e.progress = p.getString("progress");
 
@@ -114,6 +135,9 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
   t.tolerance_position = p.getDouble("success.position_tolerance");
   t.tolerance_orientation = p.getDouble("success.orientation_tolerance");
   t.settle_time = p.getDouble("success.settle_time");
+  t.place_rows = static_cast<int>(p.getInt("place.rows"));
+  t.place_columns = static_cast<int>(p.getInt("place.columns"));
+  t.place_pitch = p.getDouble("place.pitch");
   return e;
 }
 

@@ -8,6 +8,7 @@
 #include "core/params.h"
 #include "perception/perception.h"
 #include "sim/scene_sampler.h"
+#include "bt/trial_runner.h"
 #include "task/pick_place.h"
 
 namespace mm {
@@ -21,13 +22,16 @@ struct Experiment {
   int64_t trials = 0;
   uint64_t seed = 0;
   std::string hardware;    ///< "mujoco" | "mock"
-  std::string robot_path;  ///< resolved against the experiment file's folder
-  std::string scene_path;
+  std::string robot_path;  ///< resolved: set in the file, against its folder; by --set, against the
+  std::string scene_path;  ///< working directory; left default, against the project root
+  std::string tree_path;   ///< the behavior tree (XML), resolved the same way
   int jobs = 1;
   std::string progress;    ///< "auto" | "bar" | "lines" | "none"
   SpawnOptions spawn;
   PerceptionOptions perception;
   TaskOptions task;
+  bt::TreeRunOptions tree_run;
+  std::string bt_log;      ///< "none" | "failed_or_recovered" | "all": trials that keep a .db3
   ParamSet params{experimentParams()};  ///< every value as used (for config.resolved.yaml)
 };
 

@@ -47,6 +47,7 @@ class MujocoHardware final : public HardwareBase {
       : HardwareBase(w, r, std::move(active)), q_ref_(w.armPositions()), qd_ref_(VecX::Zero(r.dof())) {}
   const char* name() const override { return "mujoco"; }
   VecX jointVelocities() const override { return w_.armVelocities(); }
+  double gripperForce() const override { return w_.fingerForce(); }
   Vec3 objectVelocity(int i) const override { return w_.objectVelocity(i); }
   // The setpoint is where the joints should be at the end of the period; the servo tracks the
   // reference at its start (the previous setpoint) with the period's acceleration as feed-forward.
@@ -68,6 +69,7 @@ class MockHardware final : public HardwareBase {
   MockHardware(SimWorld& w, const RobotModel& r, std::vector<int> active) : HardwareBase(w, r, std::move(active)) {}
   const char* name() const override { return "mock"; }
   VecX jointVelocities() const override { return qd_cmd_; }
+  double gripperForce() const override { return held_ >= 0 ? grip_force_ : 0.0; }
   Vec3 objectVelocity(int i) const override { return i == held_ ? held_velocity_ : Vec3::Zero(); }
   void attach(int, bool) override {}  // a held object already moves with the hand
 

@@ -24,6 +24,7 @@ class Hardware {
   virtual VecX jointPositions() const = 0;   ///< [rad] dim dof
   virtual VecX jointVelocities() const = 0;  ///< [rad/s]
   virtual double gripperOpening() const = 0; ///< [m] per finger
+  virtual double gripperForce() const = 0;   ///< [N] per finger, closing (what the motors exert)
   /// One control period's joint setpoint: position [rad] with velocity and acceleration feed-forward.
   virtual void write(const VecX& q, const VecX& qd, const VecX& qdd) = 0;
   /// The position last written [rad] (dim dof): where an idle arm is held.

@@ -225,6 +225,11 @@ void SimWorld::setArm(const VecX& q) {
     impl_->d->qvel[impl_->arm_dof[i]] = 0;
   }
 }
+double SimWorld::fingerForce() const {
+  const auto& I = *impl_;
+  return std::max(0.0, -0.5 * (I.d->ctrl[I.finger_act[0]] + I.d->ctrl[I.finger_act[1]]));
+}
+
 double SimWorld::fingerOpening() const {
   return 0.5 * (impl_->d->qpos[impl_->finger_qpos[0]] + impl_->d->qpos[impl_->finger_qpos[1]]);
 }

@@ -43,6 +43,7 @@ class SimWorld {
   VecX armVelocities() const;
   void setArm(const VecX& q);      ///< kinematic: position set, velocity zeroed
   double fingerOpening() const;    ///< mean of the two fingers [m]
+  double fingerForce() const;      ///< closing force of the finger actuators, mean of the two [N] (>= 0)
   void setFingers(double opening); ///< kinematic
   Pose tcpPose() const;            ///< T_world_tcp
 

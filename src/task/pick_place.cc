@@ -224,6 +224,7 @@ class PlanExecution final : public Motion {
     if (s.kind == PlanStep::Kind::kGripper) {
       const double opening = static_cast<GripperMotion&>(*m).opening();
       if (s.release) letGo();
+      if (s.take_hold && ctx_.held < 0 && opening >= 0.003) takeHoldOfObjectBetweenFingers(hw);
       if (s.expected_opening > 0) {
         ctx_.out.grasp_opening = opening;
         ctx_.held_record.grasp_opening = opening;
@@ -236,18 +237,32 @@ class PlanExecution final : public Motion {
     }
   }
 
-  void attach(Hardware& hw) {
-    ctx_.held = plan_.object;
-    ctx_.picked.push_back(plan_.object);
-    ctx_.T_tcp_held = plan_.T_tcp_object;
-    ctx_.T_tcp_held_actual = hw.tcpPose().inverse() * hw.object(plan_.object).T_world_object;
+  void attach(Hardware& hw) { hold(hw, plan_.object, plan_.object_half, plan_.T_tcp_object, plan_.grasp_candidates_tried); }
+
+  // The fingers closed on something: the perceived object nearest the TCP (within 2 cm), if any.
+  void takeHoldOfObjectBetweenFingers(Hardware& hw) {
+    const Pose T_tcp = ctx_.robot.fk(hw.jointPositions());
+    const ObjectState* best = nullptr;
+    double best_d = 0.02;
+    for (const ObjectState& o : ctx_.objects) {
+      const double d = (o.T_world_object.translation() - T_tcp.translation()).norm();
+      if (d <= best_d && !picked(ctx_, o.index)) best_d = d, best = &o;
+    }
+    if (best) hold(hw, best->index, best->half_size, T_tcp.inverse() * best->T_world_object, 0);
+  }
+
+  void hold(Hardware& hw, int object, const Vec3& half, const Pose& T_tcp_object, int candidates_tried) {
+    ctx_.held = object;
+    ctx_.picked.push_back(object);
+    ctx_.T_tcp_held = T_tcp_object;
+    ctx_.T_tcp_held_actual = hw.tcpPose().inverse() * hw.object(object).T_world_object;
     PickRecord r;
-    r.object = plan_.object;
-    r.half_size = plan_.object_half;
-    r.grasp_candidates_tried = plan_.grasp_candidates_tried;
+    r.object = object;
+    r.half_size = half;
+    r.grasp_candidates_tried = candidates_tried;
     r.grasp_opening = ctx_.out.grasp_opening;
     ctx_.held_record = r;
-    if (ctx_.options.weld) hw.attach(plan_.object, true);
+    if (ctx_.options.weld) hw.attach(object, true);
   }
 
   // The gripper let go of the held object: over its target when a place brought it there.
@@ -344,8 +359,9 @@ std::vector<GraspCandidate> graspCandidates(TrialContext& ctx, const ObjectState
 }
 
 Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vector<GraspCandidate>& candidates,
-                    size_t first, GraspSolution& out) {
+                    size_t first, GraspSolution& out, double approach_distance) {
   const TaskOptions& o = ctx.options;
+  if (approach_distance < 0) approach_distance = o.approach_distance;
   const double travel = ctx.robot.spec().gripper.travel;
   const auto t = Clock::now();
   StageRecord* st = &ctx.stage("grasp_pose_ik");
@@ -353,7 +369,8 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
   auto done = [&](const Failure& f) {
     st->compute_seconds = since(t);
     ctx.out.plan_pick_time += st->compute_seconds;
-    return f.ok() ? f : ctx.fail(f);
+    st->ok = f.ok();
+    return f;
   };
   if (candidates.empty())
     return done({"grasp_pose_ik", FailureKind::kNoGrasp, "no top-down grasp for this object (tilted or too wide)"});
@@ -376,7 +393,7 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
     ++ctx.out.grasp_candidates_tried;
     const Pose& T_grasp = g.T_world_tcp;
     Pose T_pre = T_grasp;
-    T_pre.translation().z() += o.approach_distance;
+    T_pre.translation().z() += approach_distance;
     const IkResult pre = ikFar(ctx, T_pre, ctx.robot.home());
     if (!pre.ok()) {
       last = {"grasp_pose_ik", FailureKind::kIk, "pre-grasp: " + pre.reason};
@@ -415,6 +432,7 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
     out.candidate = g;
     out.candidate_index = static_cast<int>(c);
     out.candidates_tried = tried;
+    out.approach_distance = approach_distance;
     ctx.out.grasp_opening = g.width / 2;
     out.pre_opening = std::min(travel, g.width / 2 + o.finger_margin);
     break;
@@ -647,6 +665,7 @@ Plan gripperPlan(TrialContext& ctx, double opening, const std::string& stage) {
   p.bucket = ctx.held >= 0 ? TimeBucket::kPlace : TimeBucket::kPick;
   PlanStep s = gripperStep(stage, ctx.q_rest, opening);
   s.release = opens && ctx.held >= 0;
+  s.take_hold = !opens;
   p.steps.push_back(s);
   p.q_end = ctx.q_rest;
   return p;
@@ -654,8 +673,8 @@ Plan gripperPlan(TrialContext& ctx, double opening, const std::string& stage) {
 
 // ---- execution -------------------------------------------------------------------------------
 
-std::unique_ptr<Motion> executePlan(TrialContext& ctx, const Plan& plan) {
-  return std::make_unique<PlanExecution>(ctx, plan);
+std::unique_ptr<Motion> executePlan(TrialContext& ctx, Plan plan) {
+  return std::make_unique<PlanExecution>(ctx, std::move(plan));
 }
 
 Failure finishExecution(TrialContext& ctx, Motion& m) {
@@ -675,9 +694,14 @@ Failure finishExecution(TrialContext& ctx, Motion& m) {
 }
 
 Failure runMotion(TrialContext& ctx, std::unique_ptr<Motion> m) {
-  Motion& motion = ctx.executor.start(std::move(m));
-  while (motion.running()) ctx.executor.step();
-  return finishExecution(ctx, motion);
+  Failure result;
+  bool done = false;
+  ctx.executor.start(std::move(m), [&](Motion& ended) {
+    result = finishExecution(ctx, ended);
+    done = true;
+  });
+  while (!done) ctx.executor.step();
+  return result;
 }
 
 void runPickAndPlace(TrialContext& ctx, const Pose& T_world_target) {
@@ -688,10 +712,11 @@ void runPickAndPlace(TrialContext& ctx, const Pose& T_world_target) {
     const ObjectState target = ctx.objects[i];
     GraspSolution grasp;
     Plan plan;
-    return selectGrasp(ctx, target, graspCandidates(ctx, target), 0, grasp).ok() && planPick(ctx, grasp, plan).ok() &&
-           runMotion(ctx, executePlan(ctx, plan)).ok() && planPlace(ctx, T_world_target, true, plan).ok() &&
-           runMotion(ctx, executePlan(ctx, plan)).ok() && planHome(ctx, plan).ok() &&
-           runMotion(ctx, executePlan(ctx, plan)).ok();
+    if (const Failure f = selectGrasp(ctx, target, graspCandidates(ctx, target), 0, grasp); !f.ok()) return ctx.fail(f), false;
+    return planPick(ctx, grasp, plan).ok() &&
+           runMotion(ctx, executePlan(ctx, std::move(plan))).ok() && planPlace(ctx, T_world_target, true, plan).ok() &&
+           runMotion(ctx, executePlan(ctx, std::move(plan))).ok() && planHome(ctx, plan).ok() &&
+           runMotion(ctx, executePlan(ctx, std::move(plan))).ok();
   };
   finishTrial(ctx, chain());
 }

@@ -28,13 +28,13 @@ int objectsInBin(const TrialContext& ctx);
 
 /// Top-down grasp candidates for `object`, best first (neighbours: the other perceived objects).
 std::vector<GraspCandidate> graspCandidates(TrialContext& ctx, const ObjectState& object);
-/// The source's filterGrasps for one candidate: IK of the pre-grasp, a collision-free pre-grasp,
-/// a straight approach and a straight lift with the object attached.
-Failure filterGrasp(TrialContext& ctx, const ObjectState& object, const GraspCandidate& candidate, GraspSolution& out);
 /// The first candidate (in order, from `first`, at most options.max_grasp_candidates tried) that
-/// passes filterGrasp and has not failed before in this trial. Records stage "grasp_pose_ik".
+/// passes filterGrasp and has not failed before in this trial, with the pre-grasp
+/// `approach_distance` [m] above the grasp (negative: options.approach_distance). Records stage
+/// "grasp_pose_ik" (not ok when it fails) but not the failure itself: the caller records it
+/// (TrialContext::fail) when it gives up.
 Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vector<GraspCandidate>& candidates,
-                    size_t first, GraspSolution& out);
+                    size_t first, GraspSolution& out, double approach_distance = -1);
 /// The pick from where the arm rests: open, connect to the pre-grasp, approach, close, attach,
 /// lift. Records stage "connect_pregrasp".
 Failure planPick(TrialContext& ctx, const GraspSolution& grasp, Plan& out);
@@ -48,13 +48,14 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
 Failure planHome(TrialContext& ctx, Plan& out);
 /// A straight retreat of `distance` [m] up from where the arm rests. Records "plan_safe".
 Failure planRetreatUp(TrialContext& ctx, double distance, Plan& out);
-/// The gripper to `opening` [m] per finger, recorded as `stage` (letting go of a held object when
-/// opening).
+/// The gripper to `opening` [m] per finger, recorded as `stage`: opening lets go of a held object;
+/// closing on an object between the fingers (a perceived one within 2 cm of the TCP) takes hold of
+/// it.
 Plan gripperPlan(TrialContext& ctx, double opening, const std::string& stage);
 
 /// The plan's execution as a motion for the executor. Its end (success or failure) is recorded
 /// into the context when it finishes; call finishExecution() with it once it has ended.
-std::unique_ptr<Motion> executePlan(TrialContext& ctx, const Plan& plan);
+std::unique_ptr<Motion> executePlan(TrialContext& ctx, Plan plan);
 /// Books an ended execution: its failure (recorded with its stage), or its end as where the arm
 /// rests. Returns the failure (kNone on success; kHalted when halted).
 Failure finishExecution(TrialContext& ctx, Motion& execution);

@@ -32,6 +32,9 @@ struct TaskOptions {
   double drop_distance = 0.03;           ///< [m] object this far from its in-hand pose = dropped
   double settle_time = 0.5;              ///< [s] simulated rest before the evaluation
   double max_tracking_error = 0.05;      ///< [rad] IsSystemHealthy fails beyond this
+  // The place area: slots in a grid centred on the place target (ComputePlacePosition).
+  int place_rows = 1, place_columns = 3;
+  double place_pitch = 0.06;             ///< [m] between slot centres
   // Success criteria.
   double tolerance_position = 0.02;      ///< [m] horizontal distance to the place target
   double tolerance_orientation = 0.1745; ///< [rad] (10 degrees)

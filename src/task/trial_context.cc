@@ -1,5 +1,7 @@
 #include "task/trial_context.h"
 
+#include <utility>
+
 #include "core/error.h"
 #include "sim/hardware.h"
 
@@ -9,10 +11,15 @@ namespace mm {
 
 Executor::Step Executor::step() {
   if (active_ && active_->running()) {
-    if (!active_->command(hw_)) return Step::kEndedWithoutStep;
+    if (!active_->command(hw_)) {
+      ended();
+      return Step::kEndedWithoutStep;
+    }
     hw_.step();
     active_->observe(hw_);
-    return active_->running() ? Step::kStepped : Step::kEnded;
+    if (active_->running()) return Step::kStepped;
+    ended();
+    return Step::kEnded;
   }
   // Idle: hold the arm where it was last sent, at rest.
   const VecX q = hw_.commandedPositions(), zero = VecX::Zero(q.size());
@@ -21,10 +28,15 @@ Executor::Step Executor::step() {
   return Step::kStepped;
 }
 
-Motion& Executor::start(std::unique_ptr<Motion> m) {
+Motion& Executor::start(std::unique_ptr<Motion> m, std::function<void(Motion&)> on_end) {
   MM_DEMAND(!busy());
   active_ = std::move(m);
+  on_end_ = std::move(on_end);
   return *active_;
+}
+
+void Executor::ended() {
+  if (on_end_) std::exchange(on_end_, {})(*active_);
 }
 
 void Executor::halt() {

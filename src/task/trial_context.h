@@ -5,6 +5,7 @@
 // values the XML names travel through ports.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -38,6 +39,7 @@ struct PlanStep {
   bool holding = false;         ///< kTrajectory: watch the held object for a drop
   bool release = false;         ///< kGripper: lets go of the held object (weld off first)
   double expected_opening = -1; ///< kGripper closing on an object: its half width across the fingers [m]
+  bool take_hold = false;       ///< kGripper closing: a perceived object left between the fingers becomes the held one
 };
 
 /// What a trial's compute and execution times are booked under (the source's breakdown).
@@ -69,8 +71,9 @@ class Executor {
     kEndedWithoutStep,  ///< the active motion ended before using the period (no time passed)
   };
   Step step();
-  /// Starts `m`; the arm must not be busy. The motion is owned here until the next start.
-  Motion& start(std::unique_ptr<Motion> m);
+  /// Starts `m`; the arm must not be busy. The motion is owned here until the next start;
+  /// `on_end` is called once when it ends (also when it ends after a halt).
+  Motion& start(std::unique_ptr<Motion> m, std::function<void(Motion&)> on_end = {});
   /// A motion is running (perhaps a halted one still braking).
   bool busy() const { return active_ && active_->running(); }
   /// Controlled stop of the running motion (it keeps running until at rest).
@@ -78,8 +81,10 @@ class Executor {
   const Motion* active() const { return active_.get(); }
 
  private:
+  void ended();
   Hardware& hw_;
   std::unique_ptr<Motion> active_;
+  std::function<void(Motion&)> on_end_;
 };
 
 /// A grasp that passed the filters (reachable pre-grasp free of collision, straight approach and
@@ -89,6 +94,7 @@ struct GraspSolution {
   GraspCandidate candidate;
   int candidate_index = -1;   ///< position in the candidate list it came from
   int candidates_tried = 0;   ///< candidates filtered to find it
+  double approach_distance = 0.1;  ///< [m] pre-grasp above the grasp
   VecX q_pre, q_grasp;
   CartesianPath approach, lift;
   Pose T_tcp_object = Pose::Identity();

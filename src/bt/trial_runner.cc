@@ -1,0 +1,81 @@
+#include "bt/trial_runner.h"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+namespace mm::bt {
+
+TreeRunResult runTree(Tree& tree, TrialContext& ctx, const TreeRunOptions& o) {
+  TreeRunResult r;
+  tree.setClock([&ctx] { return ctx.simTime(); });
+  std::string last_failed;  // the last action or condition that failed, to explain a FAILURE
+  tree.addObserver([&](const TreeNode& n, NodeStatus, NodeStatus now) {
+    if (now == NodeStatus::kFailure && (n.kind() == NodeKind::kAction || n.kind() == NodeKind::kCondition))
+      last_failed = n.fullPath() + " [" + n.registrationId() + "]";
+  });
+  constexpr double kEps = 1e-9;
+  constexpr int kMaxTicksAtOneInstant = 1000;  // a tree that keeps waking itself without time passing
+  int ticks_now = 0;
+  double last_tick_time = -1;
+  auto tick = [&] {
+    const double t = ctx.simTime();
+    ticks_now = std::abs(t - last_tick_time) < kEps ? ticks_now + 1 : 1;
+    last_tick_time = t;
+    ++r.ticks;
+    const auto t0 = std::chrono::steady_clock::now();
+    r.status = tree.tickOnce(kMaxTicksAtOneInstant, [&] { ++r.ticks; });
+    r.tick_wall_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+  try {
+    tick();
+    while (r.status == NodeStatus::kRunning) {
+      const double next_tick = ctx.simTime() + o.tick_period;
+      bool wake = false;
+      while (!wake) {
+        if (tree.fireDueTimers()) {  // Sleep, Delay, Timeout: due now
+          wake = true;
+          break;
+        }
+        const double now = ctx.simTime();
+        if (now >= next_tick - kEps) break;
+        if (now >= o.time_budget - kEps) {
+          r.timeout = true;
+          break;
+        }
+        const Executor::Step s = ctx.executor.step();
+        wake = s != Executor::Step::kStepped;  // a motion ended: the action that waits on it decides now
+      }
+      if (r.timeout) break;
+      if (wake && ticks_now >= kMaxTicksAtOneInstant) {  // let time pass before ticking again
+        ctx.executor.step();
+      }
+      tick();
+    }
+  } catch (const std::exception& e) {
+    r.error = e.what();
+  }
+  const bool running = tree.root()->status() == NodeStatus::kRunning || r.timeout || !r.error.empty();
+  if (running) {
+    try {
+      tree.haltTree();  // running actions stop; a moving arm brakes (finished by finishTrial)
+    } catch (const std::exception& e) {
+      if (r.error.empty()) r.error = std::string("while halting the tree: ") + e.what();
+    }
+  }
+  std::ostringstream budget;
+  budget << o.time_budget;
+  if (r.timeout) {
+    ctx.fail({"tree", FailureKind::kTimeout, "TIMEOUT: the tree was still running after " + budget.str() + " s of simulated time"});
+  } else if (!r.error.empty()) {
+    ctx.fail({"tree", FailureKind::kTree, "error in the tree: " + r.error});
+  } else if (r.status == NodeStatus::kFailure) {
+    const bool explained = !ctx.out.failures.empty() && !ctx.out.failures.back().handled;
+    if (!explained)
+      ctx.fail({"tree", FailureKind::kTree,
+                "the tree returned FAILURE" + (last_failed.empty() ? std::string() : " (last failing node: " + last_failed + ")")});
+  }
+  return r;
+}
+
+}  // namespace mm::bt

@@ -1,0 +1,31 @@
+// Runs a behavior tree over one trial on simulated time: the tree is ticked every tick_period
+// (the source's 10 Hz) with the 500 Hz controller stepping the hardware in between; an action
+// whose motion ends, or a timer (Sleep, Delay, Timeout) that fires, wakes the tree at once, as
+// BT.CPP's wake-up signal does, so no stage waits for the next tick. A tree still running after
+// the trial's simulated-time budget is halted and the trial ends as TIMEOUT.
+#pragma once
+#include <string>
+
+#include "bt/tree.h"
+#include "task/trial_context.h"
+
+namespace mm::bt {
+
+struct TreeRunOptions {
+  double tick_period = 0.1;   ///< [s] simulated
+  double time_budget = 120;   ///< [s] simulated; then TIMEOUT
+};
+
+struct TreeRunResult {
+  NodeStatus status = NodeStatus::kIdle;  ///< SUCCESS or FAILURE (RUNNING when it timed out)
+  bool timeout = false;
+  long ticks = 0;                          ///< root ticks, re-ticks after a wake-up included
+  double tick_wall_seconds = 0;            ///< wall time inside the ticks (the actions' planning included)
+  std::string error;                       ///< a runtime error in the tree (a script, a port), if any
+};
+
+/// Runs `tree` to its end on `ctx` (the tree's clock becomes the trial's simulated time). Records
+/// a TIMEOUT, a runtime error or a FAILURE no action explained as the trial's failure.
+TreeRunResult runTree(Tree& tree, TrialContext& ctx, const TreeRunOptions& options);
+
+}  // namespace mm::bt

@@ -1,0 +1,66 @@
+#include "campaign/trial.h"
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+
+#include "bt/sqlite_log.h"
+#include "bt/trial_runner.h"
+#include "sim/hardware.h"
+
+namespace mm {
+
+TrialRunner::TrialRunner(const Experiment& e, const Cell& cell, const bt::TreeDocument& tree, std::string log_dir,
+                         std::string date)
+    : e_(e), cell_(cell), doc_(tree), log_dir_(std::move(log_dir)), date_(std::move(date)) {
+  env_.T_world_place_target = cell.T_world_place_target;
+  bt::registerTaskNodes(factory_, env_);
+}
+
+TrialRunner::~TrialRunner() = default;
+
+TrialOutcome TrialRunner::run(Hardware& hw, uint64_t trial, std::string& bt_log) {
+  using Clock = std::chrono::steady_clock;
+  TrialContext ctx(hw, *cell_.robot, cell_.statics, e_.task, cell_.perception, e_.seed, trial);
+  env_.ctx = &ctx;
+  std::unique_ptr<bt::Tree> tree = factory_.instantiate(doc_);
+  tree->rootBlackboard().set("place_target", bt::toAny(cell_.T_world_place_target));
+  std::unique_ptr<bt::TransitionRecorder> recorder;
+  if (e_.bt_log != "none") recorder = std::make_unique<bt::TransitionRecorder>(*tree);
+  const bt::TreeRunResult r = bt::runTree(*tree, ctx, e_.tree_run);
+  const bool succeeded = r.status == bt::NodeStatus::kSuccess && !r.timeout && r.error.empty();
+  finishTrial(ctx, succeeded);
+  env_.ctx = nullptr;
+  TrialOutcome out = std::move(ctx.out);
+  out.tree = tree->mainTreeId();
+  out.tree_status = r.timeout ? "TIMEOUT" : !r.error.empty() ? "ERROR" : bt::toString(r.status);
+  out.ticks = r.ticks;
+  cost_.tick_seconds += r.tick_wall_seconds;
+  for (const StageRecord& s : out.stages) cost_.compute_seconds += s.compute_seconds;
+  cost_.ticks += r.ticks;
+  bt_log.clear();
+  if (recorder) {
+    cost_.transitions += static_cast<long>(recorder->transitions().size());
+    const bool keep = e_.bt_log == "all" || !out.success || out.recovery_needed;
+    if (keep) {
+      const auto t0 = Clock::now();
+      if (xml_.empty()) xml_ = factory_.treeToXml(*tree);
+      char name[64];
+      std::snprintf(name, sizeof name, "trial_%06lu.db3", static_cast<unsigned long>(trial));
+      bt_log = (std::filesystem::path(log_dir_) / name).string();
+      recorder->write(bt_log, *tree, date_, xml_);
+      cost_.log_seconds += std::chrono::duration<double>(Clock::now() - t0).count();
+      ++cost_.logs;
+    }
+  }
+  return out;
+}
+
+bt::TreeDocument loadTree(const Experiment& e) {
+  bt::Factory f;
+  bt::TaskNodeEnv env;
+  bt::registerTaskNodes(f, env);
+  return f.load(e.tree_path);
+}
+
+}  // namespace mm

@@ -1,0 +1,59 @@
+// One trial through the experiment's behavior tree: the tree built fresh from the loaded document,
+// the place target put on its blackboard as `place_target` (the source's tree reads it), run on
+// simulated time, the result evaluated in the simulator, and the tree's transitions written as a
+// .db3 when the campaign keeps this trial's log.
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "bt/factory.h"
+#include "bt/manip_nodes.h"
+#include "campaign/experiment.h"
+
+namespace mm {
+
+class Hardware;
+
+/// What every trial of a campaign shares (read from the robot and the scene once).
+struct Cell {
+  const RobotModel* robot = nullptr;
+  std::vector<Obstacle> statics;
+  PerceptionOptions perception;  ///< the experiment's, with the bin's crop box and hardcoded pose
+  Pose T_world_place_target = Pose::Identity();  ///< where the placed object rests
+};
+
+/// Wall-clock accounting of the tree itself (for the benchmark), summed over the trials run.
+struct TreeCost {
+  double tick_seconds = 0;     ///< inside ticks, the actions' planning and perception included
+  double compute_seconds = 0;  ///< the actions' planning and perception (the stages' compute time)
+  double log_seconds = 0;      ///< recording transitions is inside the ticks; this is writing .db3 files
+  long ticks = 0, transitions = 0, logs = 0;
+};
+
+/// One worker's trial runner (not thread-safe; one per worker).
+class TrialRunner {
+ public:
+  /// `log_dir` receives trial_<N>.db3 files; `date` is the campaign's start ("YYYY-MM-DD HH:MM:SS").
+  TrialRunner(const Experiment& e, const Cell& cell, const bt::TreeDocument& tree, std::string log_dir, std::string date);
+  ~TrialRunner();
+  /// Runs trial `trial` on `hw` (objects spawned). Returns its outcome; `bt_log` gets the .db3
+  /// path when one was written.
+  TrialOutcome run(Hardware& hw, uint64_t trial, std::string& bt_log);
+  const TreeCost& cost() const { return cost_; }
+
+ private:
+  const Experiment& e_;
+  const Cell& cell_;
+  const bt::TreeDocument& doc_;
+  std::string log_dir_, date_, xml_;
+  bt::TaskNodeEnv env_;
+  bt::Factory factory_;
+  TreeCost cost_;
+};
+
+/// Loads and checks the experiment's tree with the node library (InputError: exit code 2).
+bt::TreeDocument loadTree(const Experiment& e);
+
+}  // namespace mm
