@@ -363,7 +363,7 @@ void copyInto(const Any& value, Any& dst) {
       return;
     }
     const double x = value.real();
-    if (value.kind() == Any::Kind::kReal && x != std::floor(x))
+    if (value.kind() == Any::Kind::kReal && (!std::isfinite(x) || x != std::floor(x) || std::abs(x) > 9.2e18))
       throw RuntimeError("Invalid floating point to integer conversion");
     dst = Any(value.kind() == Any::Kind::kInteger ? value.integer() : static_cast<long>(x)).retyped(dst.typeName());
     return;
@@ -524,8 +524,14 @@ Any evaluate(const Script::Node& n, const ScriptEnv& env) {
     case Kind::kTernary: {
       const Any c = evaluate(*n.operands[0], env);
       bool yes;
-      if (c.isString()) yes = !c.string().empty() || stringToDouble(c, env) != 0.0;
-      else if (c.isNumber()) yes = c.real() != 0.0;
+      if (c.isString()) {  // BT.CPP reads the string as a number
+        double d = 0;
+        const auto [p, ec] = std::from_chars(c.string().data(), c.string().data() + c.string().size(), d);
+        if (ec != std::errc() || p == c.string().data()) throw RuntimeError("Any failed string to number conversion");
+        yes = d != 0.0;
+      } else if (c.isNumber()) {
+        yes = c.real() != 0.0;
+      }
       else throw RuntimeError("the condition of ?: is not a number");
       return evaluate(*n.operands[yes ? 1 : 2], env);
     }

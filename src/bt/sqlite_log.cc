@@ -56,6 +56,10 @@ void TransitionRecorder::write(const std::string& file, const Tree& tree, const 
   std::filesystem::remove(tmp);
   Db d;
   if (sqlite3_open(tmp.c_str(), &d.db) != SQLITE_OK) throw std::runtime_error("sqlite: cannot open " + tmp);
+  // A new file written once by one writer and renamed into place when complete: no journal, no
+  // fsync (flushed like trials.jsonl, not synced).
+  d.exec("PRAGMA journal_mode=OFF;");
+  d.exec("PRAGMA synchronous=OFF;");
   // The statements of BT.CPP's SqliteLogger, as it writes them.
   d.exec(
       "CREATE TABLE IF NOT EXISTS Transitions (timestamp  INTEGER PRIMARY KEY NOT NULL, session_id INTEGER NOT NULL, "

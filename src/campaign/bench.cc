@@ -1,61 +1,80 @@
 #include "campaign/bench.h"
 
+#include <algorithm>
 #include <chrono>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <thread>
+#include <unistd.h>
 
+#include "campaign/stats.h"
+#include "campaign/trial.h"
 #include "core/error.h"
 #include "sim/hardware.h"
 #include "sim/sim_world.h"
 
 namespace mm {
 
-std::string benchmarkHarness(const Experiment& e, const std::string& command_line) {
-  if (e.hardware != "mujoco") throw InputError(e.file, "the harness benchmark needs hardware: mujoco");
+std::string benchmarkHarness(const Experiment& experiment, const std::string& command_line) {
+  if (experiment.hardware != "mujoco") throw InputError(experiment.file, "the harness benchmark needs hardware: mujoco");
+  Experiment e = experiment;
+  e.bt_log = "all";  // the tree's cost is measured with every trial's SQLite log written
   const RobotModel robot = RobotModel::load(e.robot_path);
   auto world = SimWorld::load(e.scene_path, robot);
-  const auto [T_bin, bin_half] = world->site("bin_region");
-  const auto [T_place, place_half] = world->site("place_target");
-  const std::vector<Obstacle> statics = world->staticObstacles();
-  Pose T_target = T_place;
-  T_target.translation().z() += world->object(0).half_size.z();
-  PerceptionOptions perception = e.perception;
-  perception.T_world_crop = T_bin;
-  perception.crop_half = bin_half;
+  const Cell cell = makeCell(e, robot, *world);
+  const bt::TreeDocument tree = loadTree(e);
+  const std::filesystem::path logs = std::filesystem::temp_directory_path() / ("minimanip_bench_" + std::to_string(getpid()));
+  std::filesystem::create_directories(logs);
+  TrialRunner runner(e, cell, tree, logs.string(), "2000-01-01 00:00:00");
   using Clock = std::chrono::steady_clock;
   auto secs = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
 
-  double wall_full = 0, wall_task = 0, sim_task = 0, wall_replay = 0, sim_replay = 0;
-  long ok = 0, steps = 0;
+  double wall_full = 0, wall_tree = 0, wall_chain = 0, sim_task = 0, wall_replay = 0, sim_replay = 0;
+  long ok = 0, same = 0, steps = 0, trials = 0;
+  std::vector<double> ratio;  // per trial: tree wall / chain wall
   std::vector<double> log;
   const auto t_all = Clock::now();
   for (int64_t i = 0; i < e.trials; ++i) {
+    // The same trial three ways, back to back: through the tree (with its log written), through
+    // the tree-less chain of the same actions, and as bare MuJoCo stepping of the tree run's controls.
     const auto t0 = Clock::now();
     Rng rng = Rng::stream(e.seed, i, Purpose::kScene);
-    const SpawnResult spawn = spawnObjects(*world, robot, T_bin, bin_half, rng, e.spawn);
+    const SpawnResult spawn = spawnObjects(*world, robot, cell.T_world_bin, cell.bin_half, rng, e.spawn);
     if (!spawn.ok) continue;
+    ++trials;
     const SimWorld::State start = world->saveState();
     log.clear();
     world->recordControls(&log);
     auto hw = makeMujocoHardware(*world, robot, spawn.active);
     const auto t1 = Clock::now();
-    TrialContext ctx(*hw, robot, statics, e.task, perception, e.seed, i);
-    runPickAndPlace(ctx, T_target);
-    const TrialOutcome& o = ctx.out;
+    std::string bt_log;
+    const TrialOutcome by_tree = runner.run(*hw, static_cast<uint64_t>(i), bt_log);
     const auto t2 = Clock::now();
     world->recordControls(nullptr);
-    ok += o.success;
+    ok += by_tree.success;
     wall_full += secs(t0, t2);
-    wall_task += secs(t1, t2);
+    wall_tree += secs(t1, t2);
     sim_task += world->time() - start.time;
-    // The same scene, the same controls, bare mj_step.
-    world->restoreState(start);
+
+    Rng rng2 = Rng::stream(e.seed, i, Purpose::kScene);
+    spawnObjects(*world, robot, cell.T_world_bin, cell.bin_half, rng2, e.spawn);
+    auto hw2 = makeMujocoHardware(*world, robot, spawn.active);
     const auto t3 = Clock::now();
+    TrialContext ctx(*hw2, robot, cell.statics, e.task, cell.perception, e.seed, static_cast<uint64_t>(i));
+    runPickAndPlace(ctx, cell.T_world_place_target);
+    const auto t4 = Clock::now();
+    wall_chain += secs(t3, t4);
+    ratio.push_back(secs(t1, t2) / secs(t3, t4));
+    same += ctx.out.success == by_tree.success && std::abs(ctx.out.sim_time - by_tree.sim_time) < 1e-9;
+
+    world->restoreState(start);
+    const auto t5 = Clock::now();
     sim_replay += world->replayControls(log);
-    wall_replay += secs(t3, Clock::now());
+    wall_replay += secs(t5, Clock::now());
     steps += static_cast<long>(log.size() / 9);
   }
+  std::filesystem::remove_all(logs);
   const double wall_total = secs(t_all, Clock::now());
   std::string cpu = "unknown";
   std::ifstream in("/proc/cpuinfo");
@@ -64,23 +83,40 @@ std::string benchmarkHarness(const Experiment& e, const std::string& command_lin
       cpu = line.substr(line.find(':') + 2);
       break;
     }
+  const TreeCost& c = runner.cost();
+  const double tree_own = std::max(0.0, c.tick_seconds - c.compute_seconds);
+  std::sort(ratio.begin(), ratio.end());
+  const double median_ratio = ratio.empty() ? 0 : ratio[ratio.size() / 2];
   std::ostringstream o;
   o.setf(std::ios::fixed);
   o.precision(2);
   o << "Harness benchmark\n";
   o << "  command:     " << command_line << "\n";
-  o << "  experiment:  " << e.file << " (" << e.trials << " trials, seed " << e.seed << ", " << e.hardware << ")\n";
+  o << "  experiment:  " << e.file << " (" << trials << " trials, seed " << e.seed << ", " << e.hardware << ", tree "
+    << e.tree_path << ")\n";
   o << "  machine:     " << cpu << ", " << std::thread::hardware_concurrency() << " cores, MuJoCo " << mujocoVersion()
     << ", one worker\n";
-  o << "  successes:   " << ok << "/" << e.trials << "\n\n";
-  o << "  full trials (spawn + settle + plan + execute): " << e.trials / wall_full << " trials/s\n";
-  o << "  task only (plan + execute + monitors):         " << sim_task / wall_task << " simulated s per wall s ("
-    << sim_task << " sim s in " << wall_task << " s)\n";
-  o << "  pure MuJoCo, same scenes and controls:         " << sim_replay / wall_replay << " simulated s per wall s ("
+  o << "  successes:   " << ok << "/" << trials << " (the tree-less chain gave the same success and simulated time on "
+    << same << ")\n\n";
+  o << "  full trials (spawn + settle + tree + evaluate): " << trials / wall_full << " trials/s\n";
+  o << "  task through the tree:                          " << sim_task / wall_tree << " simulated s per wall s ("
+    << sim_task << " sim s in " << wall_tree << " s)\n";
+  o << "  pure MuJoCo, same scenes and controls:          " << sim_replay / wall_replay << " simulated s per wall s ("
     << sim_replay << " sim s, " << steps << " steps in " << wall_replay << " s)\n";
   o.precision(3);
-  o << "  harness overhead (task wall / pure stepping wall for the same simulated time): "
-    << (wall_task / sim_task) / (wall_replay / sim_replay) << "x\n";
+  o << "  harness overhead (tree run wall / pure stepping wall for the same simulated time): "
+    << (wall_tree / sim_task) / (wall_replay / sim_replay) << "x\n\n";
+  o.precision(2);
+  o << "  behavior tree (" << c.ticks << " ticks, " << c.transitions << " transitions, " << c.logs << " .db3 logs):\n";
+  o << "    inside ticks " << 1e3 * c.tick_seconds << " ms, of which the actions' planning and perception "
+    << 1e3 * c.compute_seconds << " ms\n";
+  o << "    the tree's own cost: " << 1e6 * tree_own / std::max(1L, c.ticks) << " us per tick, " << 1e3 * tree_own / std::max(1L, trials)
+    << " ms per trial = " << 100 * tree_own / wall_tree << "% of the trials' wall time\n";
+  o << "    writing the SQLite logs: " << 1e3 * c.log_seconds / std::max(1L, c.logs) << " ms per trial = "
+    << 100 * c.log_seconds / wall_tree << "% of the trials' wall time\n";
+  o << "    together: " << 100 * (tree_own + c.log_seconds) / wall_tree << "% of the trials' wall time\n";
+  o << "    same trials without the tree (the chain of the same actions): " << wall_chain << " s against " << wall_tree
+    << " s with it; median per-trial ratio " << median_ratio << "\n";
   o.precision(1);
   o << "  total bench wall time: " << wall_total << " s\n";
   return o.str();

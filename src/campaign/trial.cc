@@ -7,6 +7,7 @@
 #include "bt/sqlite_log.h"
 #include "bt/trial_runner.h"
 #include "sim/hardware.h"
+#include "sim/sim_world.h"
 
 namespace mm {
 
@@ -54,6 +55,25 @@ TrialOutcome TrialRunner::run(Hardware& hw, uint64_t trial, std::string& bt_log)
     }
   }
   return out;
+}
+
+Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& world) {
+  Cell c;
+  c.robot = &robot;
+  c.statics = world.staticObstacles();
+  const auto [T_bin, bin_half] = world.site("bin_region");
+  const auto [T_place, place_half] = world.site("place_target");
+  const ObjectState proto = world.object(0);
+  c.T_world_bin = T_bin;
+  c.bin_half = bin_half;
+  c.T_world_place_target = T_place;
+  c.T_world_place_target.translation().z() += proto.half_size.z();
+  c.perception = e.perception;
+  c.perception.hardcoded_pose = makePose(T_bin.translation() + Vec3(0, 0, proto.half_size.z()), Mat3::Identity());
+  c.perception.hardcoded_half = proto.half_size;
+  c.perception.T_world_crop = T_bin;
+  c.perception.crop_half = bin_half;
+  return c;
 }
 
 bt::TreeDocument loadTree(const Experiment& e) {

@@ -16,13 +16,20 @@ namespace mm {
 
 class Hardware;
 
+class SimWorld;
+
 /// What every trial of a campaign shares (read from the robot and the scene once).
 struct Cell {
   const RobotModel* robot = nullptr;
   std::vector<Obstacle> statics;
   PerceptionOptions perception;  ///< the experiment's, with the bin's crop box and hardcoded pose
   Pose T_world_place_target = Pose::Identity();  ///< where the placed object rests
+  Pose T_world_bin = Pose::Identity();           ///< the scene's bin_region site (spawning)
+  Vec3 bin_half = Vec3::Zero();
 };
+
+/// The cell of experiment `e` as the scene describes it (sites bin_region and place_target).
+Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& world);
 
 /// Wall-clock accounting of the tree itself (for the benchmark), summed over the trials run.
 struct TreeCost {

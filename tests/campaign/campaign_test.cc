@@ -243,5 +243,41 @@ TEST_F(BadInput, UnknownOptionAndCommand) {
   EXPECT_THAT(r.out, HasSubstr("fly: unknown command"));
 }
 
+// ---- behavior trees that cannot be loaded: exit 2 before any trial, naming file and line ----
+
+struct BadTree {
+  const char* file;
+  const char* message;  // regex after "<file>:<line>: "
+};
+
+class BadTrees : public ::testing::TestWithParam<BadTree> {};
+
+TEST_P(BadTrees, ExitTwoNamingFileLineAndNode) {
+  TempDir d;
+  const fs::path out = d.path() / "out";
+  const std::string file = std::string("tests/bt/bad_trees/") + GetParam().file;
+  const RunResult r = runMinimanip("run experiments/quickstart.yaml --set tree=" + file + " --out " + out.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_THAT(r.out, MatchesRegex("(.|\n)*" + file + ":[0-9]+: " + GetParam().message + "(.|\n)*"));
+  EXPECT_FALSE(fs::exists(out)) << "a rejected run must not leave a results directory";
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Corpus, BadTrees,
+    ::testing::Values(BadTree{"unknown_node.xml", "<PlanAndExecuteGrasp>: Node not recognized"},
+                      BadTree{"bad_port.xml", "<PlanAndExecutePick>: a port with name \\[object\\] is found in the XML"},
+                      BadTree{"missing_port.xml", "<PlanAndExecutePick>: missing required port \\[object_pose\\]"},
+                      BadTree{"wrong_type.xml", "<IsLessThan>: The port with name \"key_B\" and value \"three\" can not be converted to int"},
+                      BadTree{"port_type_clash.xml", "<IncrementCounter>: The creation of the tree failed because the port \\[p\\]"},
+                      BadTree{"bad_script.xml", "<Script>: Expected operand at position 16"},
+                      BadTree{"unclosed_tag.xml", "malformed XML: XML_ERROR_MISMATCHED_ELEMENT"},
+                      BadTree{"missing_subtree.xml", "<SubTree>: Can't find a tree with name: ExecuteGrasp"},
+                      BadTree{"recursive_subtree.xml", "<SubTree>: Recursive behavior tree cycle detected"},
+                      BadTree{"missing_include.xml", "no such behavior-tree file"}),
+    [](const ::testing::TestParamInfo<BadTree>& i) {
+      std::string n = i.param.file;
+      return n.substr(0, n.size() - 4);
+    });
+
 }  // namespace
 }  // namespace mm

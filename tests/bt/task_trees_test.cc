@@ -1,0 +1,353 @@
+// Trees over the node library, run as the campaign runs them (TrialRunner: 10 Hz ticks on
+// simulated time, the executor stepping the hardware, the result evaluated in the simulator): the
+// source's two trees from experiments/trees/ on mock hardware and on MuJoCo, and trees of our own,
+// one of which halts the arm mid-motion and checks that the stop stays within the unscaled limits.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "bt/manip_nodes.h"
+#include "campaign/trial.h"
+#include "sim/hardware.h"
+#include "sim/scene_sampler.h"
+#include "sim/sim_world.h"
+
+namespace mm {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Forwards to a backend and records every setpoint written to it.
+class RecordingHardware final : public Hardware {
+ public:
+  explicit RecordingHardware(Hardware& inner) : in_(inner) {}
+  struct Setpoint {
+    VecX q, qd, qdd;
+  };
+  std::vector<Setpoint> written;
+  const char* name() const override { return in_.name(); }
+  double time() const override { return in_.time(); }
+  double period() const override { return in_.period(); }
+  VecX jointPositions() const override { return in_.jointPositions(); }
+  VecX jointVelocities() const override { return in_.jointVelocities(); }
+  double gripperOpening() const override { return in_.gripperOpening(); }
+  double gripperForce() const override { return in_.gripperForce(); }
+  void write(const VecX& q, const VecX& qd, const VecX& qdd) override {
+    written.push_back({q, qd, qdd});
+    in_.write(q, qd, qdd);
+  }
+  VecX commandedPositions() const override { return in_.commandedPositions(); }
+  void writeGripper(double opening, double force) override { in_.writeGripper(opening, force); }
+  void step() override { in_.step(); }
+  void attach(int i, bool on) override { in_.attach(i, on); }
+  std::vector<ObjectState> objects() const override { return in_.objects(); }
+  ObjectState object(int i) const override { return in_.object(i); }
+  Vec3 objectVelocity(int i) const override { return in_.objectVelocity(i); }
+  Pose tcpPose() const override { return in_.tcpPose(); }
+  int collisionEvents() const override { return in_.collisionEvents(); }
+  const std::vector<std::string>& collisionLog() const override { return in_.collisionLog(); }
+  bool unstable() const override { return in_.unstable(); }
+  const std::string& instabilityReason() const override { return in_.instabilityReason(); }
+
+ private:
+  Hardware& in_;
+};
+
+struct Result {
+  TrialOutcome out;
+  std::vector<RecordingHardware::Setpoint> written;
+  double dt = 0.002;
+};
+
+// One trial of the quickstart cell with `tree` (a file under experiments/trees/ or inline XML).
+Result runTree(const std::string& tree, std::vector<std::string> sets, uint64_t trial) {
+  const bool file = tree.find('<') == std::string::npos;
+  if (file) sets.push_back("tree=experiments/trees/" + tree);
+  const Experiment e = loadExperiment("experiments/quickstart.yaml", sets);
+  static const RobotModel robot = RobotModel::load("robots/panda/panda.yaml");
+  auto world = SimWorld::load(e.scene_path, robot);
+  const Cell cell = makeCell(e, robot, *world);
+  bt::Factory f;
+  bt::TaskNodeEnv env;
+  bt::registerTaskNodes(f, env);
+  const bt::TreeDocument doc = file ? f.load(e.tree_path) : f.loadText(tree, "inline.xml");
+  const fs::path logs = fs::temp_directory_path() / ("mm_trees_" + std::to_string(::getpid()));
+  fs::create_directories(logs);
+  TrialRunner runner(e, cell, doc, logs.string(), "2026-01-01 00:00:00");
+  Rng rng = Rng::stream(e.seed, trial, Purpose::kScene);
+  const SpawnResult spawn = spawnObjects(*world, robot, cell.T_world_bin, cell.bin_half, rng, e.spawn);
+  EXPECT_TRUE(spawn.ok) << spawn.reason;
+  auto backend = e.hardware == "mock" ? makeMockHardware(*world, robot, spawn.active)
+                                      : makeMujocoHardware(*world, robot, spawn.active);
+  RecordingHardware hw(*backend);
+  Result r;
+  std::string log;
+  r.out = runner.run(hw, trial, log);
+  r.written = std::move(hw.written);
+  r.dt = hw.period();
+  fs::remove_all(logs);
+  return r;
+}
+
+std::string describe(const TrialOutcome& o) {
+  std::string s = (o.success ? "success" : "FAILED at " + o.failure_stage + ": " + o.failure_reason) + "; tree " +
+                  o.tree_status + "; placed " + std::to_string(o.picks.size()) + ", left " + std::to_string(o.objects_left_in_bin);
+  for (const auto& f : o.failures) s += "\n  failure: " + f.failure.stage + " (" + failureKindName(f.failure.kind) + ") " + f.failure.reason;
+  return s;
+}
+
+int placed(const TrialOutcome& o) {
+  return static_cast<int>(std::count_if(o.picks.begin(), o.picks.end(), [](const PickRecord& p) { return p.placed; }));
+}
+
+const std::vector<std::string> kMock = {"hardware=mock"};
+std::vector<std::string> withCubes(std::vector<std::string> sets, int n) {
+  sets.push_back("objects.count_min=" + std::to_string(n));
+  sets.push_back("objects.count_max=" + std::to_string(n));
+  return sets;
+}
+
+// ---- the source's trees ----------------------------------------------------------------------
+
+TEST(SourceTrees, MiniManipPicksAndPlacesOnMockAndMujoco) {
+  for (const auto& sets : {kMock, std::vector<std::string>{}}) {
+    for (uint64_t trial : {0u, 1u}) {
+      const Result r = runTree("mini_manip.xml", sets, trial);
+      EXPECT_TRUE(r.out.success) << describe(r.out);
+      EXPECT_EQ(r.out.tree, "MiniManip");
+      EXPECT_EQ(placed(r.out), 1);
+      EXPECT_EQ(r.out.collision_count, 0);
+    }
+  }
+}
+
+TEST(SourceTrees, BinPickingAsWrittenPicksOnceAndHaltsTheLastCube) {
+  // Two cubes: WhileDoElse is not a loop; one pick-place and the tree is done (no home, no report).
+  const Result two = runTree("bin_picking.xml", withCubes(kMock, 2), 0);
+  EXPECT_TRUE(two.out.success) << describe(two.out);
+  EXPECT_EQ(placed(two.out), 1);
+  EXPECT_EQ(two.out.objects_left_in_bin, 1);
+  EXPECT_EQ(two.out.reported_total, -1);
+  // One cube: lifting it empties the bin, the condition (ticked every tick) fails, the pick is
+  // halted with the cube in the hand and the else branch runs.
+  const Result one = runTree("bin_picking.xml", withCubes(kMock, 1), 0);
+  EXPECT_FALSE(one.out.success) << describe(one.out);
+  EXPECT_THAT(one.out.failures, ::testing::Contains(::testing::Field(
+                                   &RecordedFailure::failure, ::testing::Field(&Failure::kind, FailureKind::kHalted))));
+  EXPECT_EQ(placed(one.out), 0);
+}
+
+TEST(SourceTrees, BinPickingCorrectedClearsTheBinOnMockAndMujoco) {
+  for (const auto& sets : {kMock, std::vector<std::string>{}}) {
+    const Result r = runTree("bin_picking_fixed.xml", withCubes(sets, 3), 2);
+    EXPECT_TRUE(r.out.success) << describe(r.out);
+    EXPECT_EQ(placed(r.out), 3);
+    EXPECT_EQ(r.out.objects_left_in_bin, 0);
+    EXPECT_EQ(r.out.reported_total, 3);
+    EXPECT_EQ(r.out.collision_count, 0);
+  }
+}
+
+// ---- trees of our own ------------------------------------------------------------------------
+
+std::string wrap(const std::string& body) {
+  return "<root BTCPP_format=\"4\"><BehaviorTree ID=\"T\">" + body + "</BehaviorTree></root>";
+}
+
+TEST(OwnTrees, TimeoutHaltsThePickMidMotionWithinTheUnscaledLimits) {
+  // At full speed, the move to the pre-grasp is under way when the Timeout fires at 0.6 s.
+  const Result r = runTree(wrap(R"(
+      <Sequence>
+        <DetectObject object_pose="{p}"/>
+        <Timeout msec="600"><PlanAndExecutePick object_pose="{p}"/></Timeout>
+      </Sequence>)"),
+                           {"motion.velocity_scaling=1.0", "motion.acceleration_scaling=1.0"}, 0);
+  EXPECT_FALSE(r.out.success);
+  EXPECT_THAT(r.out.failures, ::testing::Contains(::testing::Field(
+                                 &RecordedFailure::failure, ::testing::Field(&Failure::kind, FailureKind::kHalted))));
+  static const RobotModel robot = RobotModel::load("robots/panda/panda.yaml");
+  ASSERT_GT(r.written.size(), 300u);
+  // Every setpoint streamed, the stop included: within the unscaled velocity, acceleration and
+  // jerk limits, and no jump in position.
+  double peak_speed = 0, last_speed = 1;
+  for (size_t k = 1; k < r.written.size(); ++k) {
+    const auto& a = r.written[k - 1];
+    const auto& b = r.written[k];
+    for (int j = 0; j < robot.dof(); ++j) {
+      ASSERT_LE(std::abs(b.qd[j]), robot.vmax()[j] * (1 + 1e-6)) << "joint " << j << " sample " << k;
+      ASSERT_LE(std::abs(b.qdd[j]), robot.amax()[j] * (1 + 1e-6)) << "joint " << j << " sample " << k;
+      ASSERT_LE(std::abs(b.qdd[j] - a.qdd[j]) / r.dt, robot.jmax()[j] * (1 + 1e-6)) << "joint " << j << " sample " << k;
+      ASSERT_LE(std::abs(b.q[j] - a.q[j]), robot.vmax()[j] * r.dt * (1 + 1e-6)) << "joint " << j << " sample " << k;
+    }
+    peak_speed = std::max(peak_speed, b.qd.cwiseAbs().maxCoeff());
+    last_speed = b.qd.cwiseAbs().maxCoeff();
+  }
+  EXPECT_GT(peak_speed, 0.5) << "the arm was moving fast when halted";
+  EXPECT_LT(last_speed, 1e-9) << "it ends at rest";
+  EXPECT_LT(r.out.sim_time, 1.6) << "it stopped instead of finishing the pick";
+}
+
+TEST(OwnTrees, FallbackRecoversFromAPickAtTheWrongPlace) {
+  const Result r = runTree(wrap(R"(
+      <Sequence>
+        <SetBlackboard output_key="wrong" value="0.9;0.9;0.1"/>
+        <Fallback>
+          <PlanAndExecutePick object_pose="{wrong}"/>
+          <Sequence>
+            <DetectObject object_pose="{p}"/>
+            <PlanAndExecutePick object_pose="{p}"/>
+          </Sequence>
+        </Fallback>
+        <PlanAndExecutePlace place_pose="{place_target}"/>
+        <MoveToHome/>
+      </Sequence>)"),
+                           kMock, 0);
+  EXPECT_TRUE(r.out.success) << describe(r.out);
+  EXPECT_TRUE(r.out.recovery_needed);
+  EXPECT_TRUE(r.out.recovery_success);
+  EXPECT_EQ(r.out.recovery_attempts, 1);
+  ASSERT_EQ(r.out.failures.size(), 1u);
+  EXPECT_EQ(r.out.failures[0].failure.kind, FailureKind::kPrecondition);
+}
+
+TEST(OwnTrees, AForeverRepeatEndsAsTimeoutAtTheBudget) {
+  const Result r = runTree(wrap(R"(<Repeat num_cycles="-1"><AlwaysSuccess/></Repeat>)"), {"hardware=mock", "bt.time_budget=2"}, 0);
+  EXPECT_FALSE(r.out.success);
+  EXPECT_EQ(r.out.tree_status, "TIMEOUT");
+  EXPECT_EQ(r.out.failure_kind, FailureKind::kTimeout);
+  EXPECT_NEAR(r.out.sim_time, 2.0, 0.01);
+}
+
+TEST(OwnTrees, SleepCountsSimulatedTime) {
+  const std::string pick_place = R"(<DetectObject object_pose="{p}"/><PlanAndExecutePick object_pose="{p}"/>
+        <PlanAndExecutePlace place_pose="{place_target}"/><MoveToHome/>)";
+  const Result plain = runTree(wrap("<Sequence>" + pick_place + "</Sequence>"), kMock, 0);
+  const Result slept = runTree(wrap("<Sequence><Sleep msec=\"500\"/>" + pick_place + "</Sequence>"), kMock, 0);
+  ASSERT_TRUE(plain.out.success && slept.out.success);
+  // Within a control period: the holds that end on "time - start < duration" may take one more or
+  // one fewer period at a different start time (floating-point time).
+  EXPECT_NEAR(slept.out.sim_time - plain.out.sim_time, 0.5, 0.0021);
+  EXPECT_EQ(slept.out.place_position_error, plain.out.place_position_error);
+}
+
+TEST(OwnTrees, TheMtcStagesOneByOne) {
+  const Result r = runTree(wrap(R"(
+      <Sequence>
+        <TriggerPointCloud/>
+        <WaitForGraspCandidates candidates="{list}"/>
+        <SelectBestGrasp candidates="{list}" selected="{g}"/>
+        <OpenGripper/>
+        <PlanMTCPick grasp_pose="{g}" approach_dist="0.12"/>
+        <ExecuteMTCPlan/>
+        <VerifyGraspForce min_force="10" result="{ok}"/>
+        <ScriptCondition code="ok"/>
+        <ComputePlacePosition pick_count="0" place_pose="{slot}"/>
+        <PlanMTCPlace place_pose="{slot}"/>
+        <ExecuteMTCPlan/>
+        <OpenGripper/>
+        <MoveToSafe/>
+        <MoveToHome/>
+      </Sequence>)"),
+                           {}, 1);
+  EXPECT_TRUE(r.out.success) << describe(r.out);
+  EXPECT_EQ(placed(r.out), 1);
+  EXPECT_LT(r.out.place_position_error, 0.01);
+}
+
+TEST(OwnTrees, AReactiveHealthMonitorAboveThePick) {
+  const Result r = runTree(wrap(R"(
+      <ReactiveSequence>
+        <IsSystemHealthy max_tracking_error="0.02"/>
+        <Sequence>
+          <DetectObject object_pose="{p}"/>
+          <PlanAndExecutePick object_pose="{p}"/>
+          <PlanAndExecutePlace place_pose="{place_target}"/>
+          <MoveToHome/>
+        </Sequence>
+      </ReactiveSequence>)"),
+                           {}, 0);
+  EXPECT_TRUE(r.out.success) << describe(r.out);
+  EXPECT_GT(r.out.ticks, 50) << "ticked at 10 Hz while the arm moved";
+}
+
+TEST(OwnTrees, ClosingOnNothingFailsTheGraspCheck) {
+  const Result r = runTree(wrap(R"(
+      <Sequence>
+        <CloseGripper/>
+        <VerifyGraspForce result="{ok}"/>
+        <Precondition if="ok" else="FAILURE"><AlwaysSuccess/></Precondition>
+      </Sequence>)"),
+                           kMock, 0);
+  EXPECT_FALSE(r.out.success);
+  EXPECT_EQ(r.out.tree_status, "FAILURE");
+  EXPECT_EQ(r.out.failure_kind, FailureKind::kTree);
+}
+
+TEST(OwnTrees, ARepeatFillsTheSlotsOfThePlaceGrid) {
+  const Result r = runTree(wrap(R"(
+      <Sequence>
+        <SetBlackboard output_key="n" value="0"/>
+        <Repeat num_cycles="2">
+          <Sequence>
+            <DetectObject object_pose="{p}"/>
+            <PlanAndExecutePick object_pose="{p}"/>
+            <ComputePlacePosition pick_count="{n}" place_pose="{slot}"/>
+            <PlanAndExecutePlace place_pose="{slot}"/>
+            <IncrementCounter key="{n}"/>
+          </Sequence>
+        </Repeat>
+        <MoveToHome/>
+        <ReportCompletion total="{n}"/>
+      </Sequence>)"),
+                           withCubes(kMock, 2), 3);
+  EXPECT_TRUE(r.out.success) << describe(r.out);
+  ASSERT_EQ(placed(r.out), 2);
+  EXPECT_EQ(r.out.reported_total, 2);
+  EXPECT_NEAR((r.out.picks[0].T_world_target.translation() - r.out.picks[1].T_world_target.translation()).norm(), 0.06, 1e-9);
+}
+
+TEST(OwnTrees, ASwitchAndASubtreeWithRemappedPorts) {
+  const Result r = runTree(R"(<root BTCPP_format="4" main_tree_to_execute="Main">
+      <BehaviorTree ID="Main">
+        <Sequence>
+          <Script code="mode := 'pick'"/>
+          <Switch2 variable="{mode}" case_1="pick" case_2="home">
+            <SubTree ID="PickPlace" target="{place_target}" _autoremap="false"/>
+            <MoveToHome/>
+            <AlwaysFailure/>
+          </Switch2>
+        </Sequence>
+      </BehaviorTree>
+      <BehaviorTree ID="PickPlace">
+        <Sequence>
+          <DetectObject object_pose="{cube}"/>
+          <PlanAndExecutePick object_pose="{cube}"/>
+          <PlanAndExecutePlace place_pose="{target}"/>
+          <MoveToHome/>
+        </Sequence>
+      </BehaviorTree></root>)",
+                           kMock, 1);
+  EXPECT_TRUE(r.out.success) << describe(r.out);
+}
+
+TEST(OwnTrees, PreconditionsAndPostConditionsOnTaskNodes) {
+  // _skipIf skips the first pick attempt; _onSuccess counts the successful place.
+  const Result r = runTree(wrap(R"(
+      <Sequence>
+        <Script code="skip := true; places := 0"/>
+        <DetectObject object_pose="{p}"/>
+        <PlanAndExecutePick object_pose="{wrong}" _skipIf="skip"/>
+        <PlanAndExecutePick object_pose="{p}"/>
+        <PlanAndExecutePlace place_pose="{place_target}" _onSuccess="places += 1"/>
+        <ScriptCondition code="places == 1"/>
+        <MoveToHome/>
+      </Sequence>)"),
+                           kMock, 0);
+  EXPECT_TRUE(r.out.success) << describe(r.out);
+  EXPECT_FALSE(r.out.recovery_needed);
+}
+
+}  // namespace
+}  // namespace mm
