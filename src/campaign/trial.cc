@@ -76,6 +76,25 @@ Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& worl
   return c;
 }
 
+std::string nodeLibraryMarkdown() {
+  bt::Factory f;
+  bt::TaskNodeEnv env;
+  bt::registerTaskNodes(f, env);
+  std::string md = "| node | kind | ports | meaning |\n|---|---|---|---|\n";
+  for (const auto& [id, m] : f.manifests()) {
+    if (f.isBuiltin(id)) continue;
+    std::string ports;
+    for (const auto& [name, p] : m.ports) {
+      const char* dir = p.direction == bt::PortDirection::kInput ? "in" : p.direction == bt::PortDirection::kOutput ? "out" : "in/out";
+      ports += (ports.empty() ? "" : "<br>") + std::string("`") + name + "` (" + dir + ", " +
+               (p.type.stronglyTyped() ? p.type.name : "any") + (p.default_value ? ", default " + *p.default_value : "") +
+               ")" + (p.description.empty() ? "" : ": " + p.description);
+    }
+    md += "| `" + id + "` | " + bt::toString(m.kind) + " | " + (ports.empty() ? "-" : ports) + " | " + m.description + " |\n";
+  }
+  return md;
+}
+
 bt::TreeDocument loadTree(const Experiment& e) {
   bt::Factory f;
   bt::TaskNodeEnv env;

@@ -63,4 +63,7 @@ class TrialRunner {
 /// Loads and checks the experiment's tree with the node library (InputError: exit code 2).
 bt::TreeDocument loadTree(const Experiment& e);
 
+/// The node library (not BT.CPP's built-ins) as a Markdown table: node, kind, ports, meaning.
+std::string nodeLibraryMarkdown();
+
 }  // namespace mm

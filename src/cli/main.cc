@@ -10,6 +10,7 @@
 #include "campaign/experiment.h"
 #include "campaign/ik_bench.h"
 #include "campaign/plan_bench.h"
+#include "campaign/trial.h"
 #include "core/error.h"
 
 namespace {
@@ -27,6 +28,7 @@ const char* kUsage =
     "                       [--optimizer chomp] [--out DIR]\n"
     "                                planners x checkers x time parameterizations on bin-scene problems\n"
     "  minimanip config-doc          print every experiment key as a Markdown table\n"
+    "  minimanip nodes-doc           print the behavior-tree node library (ports, meanings) as a Markdown table\n"
     "  minimanip help\n";
 
 // The value after the option at args[i] (i moves onto it); an InputError if there is none.
@@ -171,6 +173,10 @@ int main(int argc, char** argv) {
     if (args[0] == "bench") return run({args.begin() + 1, args.end()}, command_line, true);
     if (args[0] == "config-doc") {
       std::cout << mm::ParamSet(mm::experimentParams()).toMarkdown();
+      return 0;
+    }
+    if (args[0] == "nodes-doc") {
+      std::cout << mm::nodeLibraryMarkdown();
       return 0;
     }
     throw mm::InputError(args[0], std::string("unknown command\n") + kUsage);
