@@ -6,6 +6,11 @@
 
 namespace mm::bt {
 
+void TreeRunOptions::declare(ConfigArchive& a) {
+  a.value("tick_period", tick_period, {0.001, 10.0}, "s", "simulated time between ticks (an action that finishes wakes the tree at once)");
+  a.value("time_budget", time_budget, {1.0, 1e6}, "s", "simulated time a trial may take; a tree still running then ends as TIMEOUT");
+}
+
 TreeRunResult runTree(Tree& tree, TrialContext& ctx, const TreeRunOptions& o) {
   TreeRunResult r;
   tree.setClock([&ctx] { return ctx.simTime(); });

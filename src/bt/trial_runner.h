@@ -7,11 +7,14 @@
 #include <string>
 
 #include "bt/tree.h"
+#include "core/config.h"
 #include "task/trial_context.h"
 
 namespace mm::bt {
 
 struct TreeRunOptions {
+  /// Keys tick_period, time_budget (section "bt").
+  void declare(ConfigArchive& a);
   double tick_period = 0.1;   ///< [s] simulated
   double time_budget = 120;   ///< [s] simulated; then TIMEOUT
 };

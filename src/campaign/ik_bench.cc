@@ -121,6 +121,19 @@ std::string cpuModel() {
 
 }  // namespace
 
+void IkBenchOptions::declare(ConfigArchive& a) {
+  a.value("robot", robot, "a robot's name under robots/ (panda) or the path of its YAML");
+  a.path("scene", scene, "scene MJCF of the bin set's grasp and place poses");
+  a.choice("tip", tip, {"tcp", "flange"}, "the frame the poses are for (published KDL/TRAC-IK figures are for the flange)");
+  a.value("poses", poses, {1, 1e7}, "", "poses per set");
+  a.value("seed", seed, {0, 9.007e15}, "", "seed of the pose sets and the solvers' restarts");
+  a.value("budget", budget, {1e-6, 60.0}, "s", "wall-clock cap per solve (5ms, 500us, 0.01s)");
+  a.list("solvers", solvers, ikSolverNames(), "solvers to compare (empty: all)");
+  a.list("sets", sets, {"random", "bin", "singular", "limits"}, "pose sets");
+  a.value("distinct", distinct_poses, {0, 1e6}, "", "poses of the random set asked for up to 8 distinct solutions");
+  a.path("out", out_dir, "results folder");
+}
+
 std::string runIkBench(const IkBenchOptions& o) {
   const std::string robot_path = o.robot.find('/') == std::string::npos && o.robot.find(".yaml") == std::string::npos
                                      ? std::string("robots/") + o.robot + "/" + o.robot + ".yaml"

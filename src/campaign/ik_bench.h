@@ -3,12 +3,17 @@
 // poses of the quickstart bin scene), "singular" (near the shoulder, elbow and wrist
 // singularities), "limits" (one to three joints within 2% of a limit). Seeds at joint mid-range.
 #pragma once
+#include <cstdint>
 #include <string>
 #include <vector>
+
+#include "core/config.h"
 
 namespace mm {
 
 struct IkBenchOptions {
+  /// Every option of `minimanip ik-bench` (--key value on the command line).
+  void declare(ConfigArchive& a);
   std::string robot = "panda";          ///< a name under robots/ or a path to a robot YAML
   std::string scene;                    ///< scene MJCF for the "bin" set
   std::string tip = "tcp";              ///< "tcp" or "flange": the frame the poses are for

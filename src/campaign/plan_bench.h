@@ -9,9 +9,13 @@
 #include <string>
 #include <vector>
 
+#include "core/config.h"
+
 namespace mm {
 
 struct PlanBenchOptions {
+  /// Every option of `minimanip plan-bench` (--key value on the command line).
+  void declare(ConfigArchive& a);
   std::string robot = "robots/panda/panda.yaml";
   std::string scene = "scenes/bin_table.xml";
   int scenes = 20;                        ///< seeded bin layouts; 3 problems each
@@ -22,7 +26,7 @@ struct PlanBenchOptions {
   std::vector<std::string> planners;      ///< empty: all
   std::vector<std::string> checkers = {"spheres", "spheres+fcl", "fcl"};
   bool simplify = true;
-  std::string optimizer;                  ///< "chomp": also run each planner followed by CHOMP
+  std::string optimizer = "none";         ///< "chomp": also run each planner followed by CHOMP
   std::string out_dir = "results/plan-bench";
   std::string command_line;
 };

@@ -1,7 +1,10 @@
-// minimanip: command-line entry. Parses arguments and calls the campaign layer; nothing else.
+// minimanip: command-line entry (CLI11). Parses arguments and calls the campaign layer; nothing
+// else. The benches' options come from their declarations (declare()), like the experiment keys.
 // Exit codes: 0 done, 1 internal error, 2 bad input (nothing run, no results written).
+#include <CLI/CLI.hpp>
+#include <algorithm>
 #include <iostream>
-#include <sstream>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -11,175 +14,148 @@
 #include "campaign/ik_bench.h"
 #include "campaign/plan_bench.h"
 #include "campaign/trial.h"
+#include "core/config.h"
 #include "core/error.h"
 
 namespace {
 
-const char* kUsage =
-    "usage:\n"
-    "  minimanip run EXPERIMENT.yaml [--trials N] [--seed S] [--out DIR] [--jobs N] [--set key=value]...\n"
-    "  minimanip bench EXPERIMENT.yaml [--trials N] [--seed S] [--set key=value]...\n"
-    "                                harness throughput vs pure MuJoCo stepping of the same trials\n"
-    "  minimanip ik-bench [--robot panda] [--poses 1000] [--seed S] [--budget 5ms] [--solvers a,b]\n"
-    "                     [--sets random,bin,singular,limits] [--tip tcp|flange] [--distinct N] [--out DIR]\n"
-    "                                every IK solver on the same poses and seeds\n"
-    "  minimanip plan-bench [--scenes 20] [--seed S] [--planners a,b] [--checkers spheres,spheres+fcl,fcl]\n"
-    "                       [--problems bin|clutter] [--time-limit 5] [--padding 0.01] [--no-simplify]\n"
-    "                       [--optimizer chomp] [--out DIR]\n"
-    "                                planners x checkers x time parameterizations on bin-scene problems\n"
-    "  minimanip config-doc          print every experiment key as a Markdown table\n"
-    "  minimanip nodes-doc           print the behavior-tree node library (ports, meanings) as a Markdown table\n"
-    "  minimanip help\n";
-
-// The value after the option at args[i] (i moves onto it); an InputError if there is none.
-std::string nextValue(const std::vector<std::string>& args, size_t& i) {
-  if (i + 1 >= args.size()) throw mm::InputError(args[i], "expected a value after " + args[i]);
-  return args[++i];
-}
-
-int run(const std::vector<std::string>& args, const std::string& command_line, bool bench) {
-  if (args.empty()) throw mm::InputError("minimanip run", std::string("expected an experiment file\n") + kUsage);
-  std::string file, out;
+// `run` and `bench`: an experiment file, a few shortcuts and --set key=value.
+struct RunArgs {
+  std::string file, out, trials, seed, jobs;
   std::vector<std::string> sets;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&] { return nextValue(args, i); };
-    if (a == "--trials") sets.push_back("trials=" + value());
-    else if (a == "--seed") sets.push_back("seed=" + value());
-    else if (a == "--jobs") sets.push_back("jobs=" + value());
-    else if (a == "--out") out = value();
-    else if (a == "--set") sets.push_back(value());
-    else if (a.rfind("--", 0) == 0) throw mm::InputError(a, std::string("unknown option\n") + kUsage);
-    else if (file.empty()) file = a;
-    else throw mm::InputError(a, "expected one experiment file, got a second argument");
-  }
-  if (file.empty()) throw mm::InputError("minimanip run", "expected an experiment file");
-  const mm::Experiment e = mm::loadExperiment(file, sets);
-  if (bench) {
-    std::cout << mm::benchmarkHarness(e, command_line);
-    return 0;
-  }
-  mm::CampaignOptions co;
-  co.out_dir = out.empty() ? "results/" + e.name : out;
-  co.command_line = command_line;
-  const std::string table = mm::runCampaign(e, co);
-  std::cout << table << "Results: " << co.out_dir << "/ (trials.jsonl, summary.json, config.resolved.yaml)\n";
-  return 0;
+};
+
+void addRunOptions(CLI::App* sub, RunArgs& r, bool with_out) {
+  sub->add_option("experiment", r.file, "experiment YAML (every key: minimanip config-doc)")->required();
+  sub->add_option("--trials", r.trials, "number of trials (= --set trials=N)");
+  sub->add_option("--seed", r.seed, "campaign seed (= --set seed=S)");
+  sub->add_option("--jobs", r.jobs, "parallel workers (= --set jobs=N)");
+  if (with_out) sub->add_option("--out", r.out, "results folder (default results/<name>)");
+  sub->add_option("--set", r.sets, "key=value, any experiment key (repeatable)")->allow_extra_args(false);
 }
 
-std::vector<std::string> splitList(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  for (std::string item; std::getline(ss, item, ',');)
-    if (!item.empty()) out.push_back(item);
-  return out;
+mm::Experiment loadRun(const RunArgs& r) {
+  std::vector<std::string> sets;
+  if (!r.trials.empty()) sets.push_back("trials=" + r.trials);
+  if (!r.seed.empty()) sets.push_back("seed=" + r.seed);
+  if (!r.jobs.empty()) sets.push_back("jobs=" + r.jobs);
+  sets.insert(sets.end(), r.sets.begin(), r.sets.end());
+  return mm::loadExperiment(r.file, sets);
 }
 
-// "5ms", "500us", "0.01s" or a number of seconds.
-double parseDuration(const std::string& flag, const std::string& v) {
-  size_t end = 0;
-  double x = 0;
-  try {
-    x = std::stod(v, &end);
-  } catch (const std::exception&) {
-    throw mm::InputError(flag, "expected a duration like 5ms, got '" + v + "'");
-  }
-  const std::string unit = v.substr(end);
-  const double scale = unit == "ms" ? 1e-3 : unit == "us" ? 1e-6 : (unit == "s" || unit.empty()) ? 1.0 : -1.0;
-  if (scale < 0 || !(x > 0)) throw mm::InputError(flag, "expected a positive duration like 5ms, got '" + v + "'");
-  return x * scale;
-}
+// A subcommand whose options are a struct's declarations: --key value (underscores as dashes).
+struct Declared {
+  std::vector<mm::ParamDecl> decls;
+  std::map<std::string, std::pair<CLI::Option*, std::string>> given;  // key -> option, text
 
-long parseCount(const std::string& flag, const std::string& v, long lo, long hi) {
-  size_t end = 0;
-  long x = 0;
-  try {
-    x = std::stol(v, &end);
-  } catch (const std::exception&) {
-    end = 0;
+  void add(CLI::App* sub, std::vector<mm::ParamDecl> d) {
+    decls = std::move(d);
+    for (const mm::ParamDecl& p : decls) {
+      std::string flag = p.key;
+      for (char& c : flag)
+        if (c == '_' || c == '.') c = '-';
+      auto& slot = given[p.key];
+      std::string help = p.help + (p.unit.empty() ? "" : " [" + p.unit + "]") + " (default: " +
+                         (p.default_value.empty() ? "none" : p.default_value) + ")";
+      if (!p.choices.empty()) {
+        help += "; one of";
+        for (const auto& c : p.choices) help += " " + c;
+      }
+      slot.first = sub->add_option("--" + flag, slot.second, help);
+    }
   }
-  if (end != v.size() || x < lo || x > hi)
-    throw mm::InputError(flag, "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got '" + v + "'");
-  return x;
-}
-
-int ikBench(const std::vector<std::string>& args, const std::string& command_line) {
-  mm::IkBenchOptions o;
-  o.scene = "scenes/bin_table.xml";
-  o.command_line = command_line;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&] { return nextValue(args, i); };
-    if (a == "--robot") o.robot = value();
-    else if (a == "--poses") o.poses = static_cast<int>(parseCount(a, value(), 1, 10000000));
-    else if (a == "--seed") o.seed = static_cast<uint64_t>(parseCount(a, value(), 0, 9007199254740992L));
-    else if (a == "--budget") o.budget = parseDuration(a, value());
-    else if (a == "--solvers") o.solvers = splitList(value());
-    else if (a == "--sets") o.sets = splitList(value());
-    else if (a == "--distinct") o.distinct_poses = static_cast<int>(parseCount(a, value(), 0, 1000000));
-    else if (a == "--scene") o.scene = value();
-    else if (a == "--tip") o.tip = value();
-    else if (a == "--out") o.out_dir = value();
-    else throw mm::InputError(a, std::string("unknown option\n") + kUsage);
+  // The struct filled through `declare` from the defaults and the options given; paths given
+  // resolve against the working directory, defaults against the project root.
+  void read(const std::function<void(mm::ConfigArchive&)>& declare) const {
+    mm::ParamSet p(decls);
+    for (const auto& [key, slot] : given)
+      if (slot.first->count() > 0) p.set(key, slot.second, slot.first->get_name(), "");
+    mm::readConfig(p, declare, [&](const std::string& key, const std::string& v) { return mm::resolvePath(v, p.origin(key)); });
   }
-  std::cout << mm::runIkBench(o) << "Results: " << o.out_dir << "/ (ik_bench.json, ik_bench.md)\n";
-  return 0;
-}
-
-int planBench(const std::vector<std::string>& args, const std::string& command_line) {
-  mm::PlanBenchOptions o;
-  o.command_line = command_line;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&] { return nextValue(args, i); };
-    if (a == "--scenes") o.scenes = static_cast<int>(parseCount(a, value(), 1, 100000));
-    else if (a == "--seed") o.seed = static_cast<uint64_t>(parseCount(a, value(), 0, 9007199254740992L));
-    else if (a == "--planners") o.planners = splitList(value());
-    else if (a == "--checkers") o.checkers = splitList(value());
-    else if (a == "--time-limit") o.time_limit = parseDuration(a, value());
-    else if (a == "--padding") {
-      const std::string v = value();
-      char* end = nullptr;
-      o.padding = std::strtod(v.c_str(), &end);
-      if (!end || *end || !(o.padding >= 0 && o.padding <= 0.1)) throw mm::InputError(a, "expected a padding in [0, 0.1] m, got '" + v + "'");
-    } else if (a == "--no-simplify") o.simplify = false;
-    else if (a == "--optimizer") o.optimizer = value();
-    else if (a == "--problems") {
-      o.problems = value();
-      if (o.problems != "bin" && o.problems != "clutter") throw mm::InputError(a, "expected bin or clutter, got '" + o.problems + "'");
-    } else if (a == "--robot") o.robot = value();
-    else if (a == "--scene") o.scene = value();
-    else if (a == "--out") o.out_dir = value();
-    else throw mm::InputError(a, std::string("unknown option\n") + kUsage);
-  }
-  std::cout << mm::runPlanBench(o) << "Results: " << o.out_dir << "/ (plan_bench.json, plan_bench.md, plan_bench.log)\n";
-  return 0;
-}
+};
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::vector<std::string> args(argv + 1, argv + argc);
   std::string command_line = "minimanip";
-  for (const auto& a : args) command_line += " " + a;
+  for (int i = 1; i < argc; ++i) command_line += std::string(" ") + argv[i];
+
+  CLI::App app{"Mini-Manip Bench: pick-and-place campaigns and benchmarks in MuJoCo"};
+  app.require_subcommand(1);
+  app.fallthrough(false);
+
+  RunArgs run_args, bench_args;
+  CLI::App* run = app.add_subcommand("run", "an N-trial campaign: trials.jsonl, summary.json, config.resolved.yaml, bt/*.db3");
+  addRunOptions(run, run_args, true);
+  CLI::App* bench = app.add_subcommand("bench", "harness benchmark: each trial through the tree, through the tree-less "
+                                                 "chain and as bare MuJoCo stepping");
+  addRunOptions(bench, bench_args, false);
+
+  mm::IkBenchOptions ik;
+  ik.scene = "scenes/bin_table.xml";
+  Declared ik_decl;
+  CLI::App* ik_cmd = app.add_subcommand("ik-bench", "every IK solver on the same poses and seeds");
+  ik_decl.add(ik_cmd, mm::declarationsOf([&](mm::ConfigArchive& a) { ik.declare(a); }));
+
+  mm::PlanBenchOptions plan;
+  Declared plan_decl;
+  CLI::App* plan_cmd = app.add_subcommand("plan-bench", "planners x checkers x time parameterizations on the same problems");
+  plan_decl.add(plan_cmd, mm::declarationsOf([&](mm::ConfigArchive& a) { plan.declare(a); }));
+  bool no_simplify = false;
+  plan_cmd->add_flag("--no-simplify", no_simplify, "do not simplify the planned paths (= --simplify false)");
+
+  CLI::App* config_doc = app.add_subcommand("config-doc", "print every experiment key as a Markdown table");
+  CLI::App* nodes_doc = app.add_subcommand("nodes-doc", "print the behavior-tree node library as a Markdown table");
+
   try {
-    if (args.empty() || args[0] == "help" || args[0] == "--help" || args[0] == "-h") {
-      std::cout << kUsage;
-      return args.empty() ? 2 : 0;
+    const std::vector<std::string> commands = {"run", "bench", "ik-bench", "plan-bench", "config-doc", "nodes-doc"};
+    if (argc > 1 && argv[1][0] != '-' && std::find(commands.begin(), commands.end(), argv[1]) == commands.end())
+      throw mm::InputError(argv[1], "unknown command (expected run, bench, ik-bench, plan-bench, config-doc or nodes-doc; --help)");
+    try {
+      app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+      return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+      return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+      throw mm::InputError("minimanip", std::string(e.what()) + "\n" + app.help());
     }
-    if (args[0] == "run") return run({args.begin() + 1, args.end()}, command_line, false);
-    if (args[0] == "plan-bench") return planBench({args.begin() + 1, args.end()}, command_line);
-    if (args[0] == "ik-bench") return ikBench({args.begin() + 1, args.end()}, command_line);
-    if (args[0] == "bench") return run({args.begin() + 1, args.end()}, command_line, true);
-    if (args[0] == "config-doc") {
+    if (run->parsed() || bench->parsed()) {
+      const RunArgs& r = run->parsed() ? run_args : bench_args;
+      const mm::Experiment e = loadRun(r);
+      if (bench->parsed()) {
+        std::cout << mm::benchmarkHarness(e, command_line);
+        return 0;
+      }
+      mm::CampaignOptions co;
+      co.out_dir = r.out.empty() ? "results/" + e.name : r.out;
+      co.command_line = command_line;
+      const std::string table = mm::runCampaign(e, co);
+      std::cout << table << "Results: " << co.out_dir << "/ (trials.jsonl, summary.json, config.resolved.yaml, bt/)\n";
+      return 0;
+    }
+    if (ik_cmd->parsed()) {
+      ik_decl.read([&](mm::ConfigArchive& a) { ik.declare(a); });
+      ik.command_line = command_line;
+      std::cout << mm::runIkBench(ik) << "Results: " << ik.out_dir << "/ (ik_bench.json, ik_bench.md)\n";
+      return 0;
+    }
+    if (plan_cmd->parsed()) {
+      plan_decl.read([&](mm::ConfigArchive& a) { plan.declare(a); });
+      if (no_simplify) plan.simplify = false;
+      plan.command_line = command_line;
+      std::cout << mm::runPlanBench(plan) << "Results: " << plan.out_dir << "/ (plan_bench.json, plan_bench.md, plan_bench.log)\n";
+      return 0;
+    }
+    if (config_doc->parsed()) {
       std::cout << mm::ParamSet(mm::experimentParams()).toMarkdown();
       return 0;
     }
-    if (args[0] == "nodes-doc") {
+    if (nodes_doc->parsed()) {
       std::cout << mm::nodeLibraryMarkdown();
       return 0;
     }
-    throw mm::InputError(args[0], std::string("unknown command\n") + kUsage);
+    return 2;
   } catch (const mm::InputError& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 2;

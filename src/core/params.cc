@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <algorithm>
 #include <fstream>
 #include <sstream>
 
@@ -21,6 +22,14 @@ std::string kindName(const ParamDecl& d) {
     case ParamDecl::Kind::kString: return "a string";
     case ParamDecl::Kind::kChoice: {
       std::string s = "one of";
+      for (size_t i = 0; i < d.choices.size(); ++i) s += (i ? ", " : " ") + d.choices[i];
+      return s;
+    }
+    case ParamDecl::Kind::kPath: return "a file path";
+    case ParamDecl::Kind::kRealList: return "a list of numbers";
+    case ParamDecl::Kind::kChoiceList: {
+      if (d.choices.empty()) return "a list of names";
+      std::string s = "a list of";
       for (size_t i = 0; i < d.choices.size(); ++i) s += (i ? ", " : " ") + d.choices[i];
       return s;
     }
@@ -44,10 +53,62 @@ std::string rangeText(const ParamDecl& d) {
   return s.str();
 }
 
+std::vector<std::string> items(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream ss(text);
+  for (std::string item; std::getline(ss, item, ',');) {
+    const auto a = item.find_first_not_of(" \t"), b = item.find_last_not_of(" \t");
+    if (a != std::string::npos) out.push_back(item.substr(a, b - a + 1));
+  }
+  return out;
+}
+
+// Seconds may be written with a unit: 5ms, 500us, 0.01s.
+std::string secondsText(const ParamDecl& d, const std::string& text) {
+  if (d.unit != "s") return text;
+  for (const auto& [suffix, scale] : {std::pair<const char*, double>{"ms", 1e-3}, {"us", 1e-6}, {"s", 1.0}}) {
+    const std::string sfx = suffix;
+    if (text.size() > sfx.size() && text.compare(text.size() - sfx.size(), sfx.size(), sfx) == 0) {
+      double v;
+      if (parseDouble(text.substr(0, text.size() - sfx.size()), v)) {
+        std::ostringstream o;
+        o.precision(17);
+        o << v * scale;
+        return o.str();
+      }
+    }
+  }
+  return text;
+}
+
 // Validates `text` against `d`; returns the canonical text or throws InputError at `where`.
-std::string validate(const ParamDecl& d, const std::string& text, const std::string& where) {
+std::string validate(const ParamDecl& d, const std::string& raw, const std::string& where) {
   const std::string expected = "'" + d.key + "' expects " + kindName(d);
+  const std::string text = secondsText(d, raw);
   switch (d.kind) {
+    case ParamDecl::Kind::kPath:
+      if (text.empty()) throw InputError(where, expected + ", got an empty value");
+      return text;
+    case ParamDecl::Kind::kRealList: {
+      std::string canonical;
+      for (const std::string& item : items(text)) {
+        double v;
+        if (!parseDouble(item, v)) throw InputError(where, expected + ", got '" + item + "' in '" + text + "'");
+        if (v < d.min || v > d.max)
+          throw InputError(where, "'" + d.key + "' items must be in " + rangeText(d) + ", got " + item);
+        canonical += (canonical.empty() ? "" : ",") + item;
+      }
+      return canonical;
+    }
+    case ParamDecl::Kind::kChoiceList: {
+      std::string canonical;
+      for (const std::string& item : items(text)) {
+        if (!d.choices.empty() && std::find(d.choices.begin(), d.choices.end(), item) == d.choices.end())
+          throw InputError(where, expected + ", got '" + item + "'");
+        canonical += (canonical.empty() ? "" : ",") + item;
+      }
+      return canonical;
+    }
     case ParamDecl::Kind::kBool:
       if (text == "true" || text == "false") return text;
       throw InputError(where, expected + ", got '" + text + "'");
@@ -84,7 +145,14 @@ void walk(const YAML::Node& node, const std::string& prefix, const std::string& 
     if (v.IsMap()) {
       walk(v, key, file, set);
     } else if (v.IsScalar()) {
-      set.set(key, v.Scalar(), where);
+      set.set(key, v.Scalar(), where, file);
+    } else if (v.IsSequence() && set.has(key) && set.isList(key)) {
+      std::string joined;
+      for (const auto& item : v) {
+        if (!item.IsScalar()) throw InputError(where, "'" + key + "' expects a list of single values");
+        joined += (joined.empty() ? "" : ",") + item.Scalar();
+      }
+      set.set(key, joined, where, file);
     } else if (v.IsNull()) {
       throw InputError(where, "'" + key + "' has no value");
     } else {
@@ -132,9 +200,28 @@ void ParamSet::loadYamlFile(const std::string& path) {
 }
 
 void ParamSet::set(const std::string& key, const std::string& text, const std::string& where) {
+  set(key, text, where, "");
+}
+
+void ParamSet::set(const std::string& key, const std::string& text, const std::string& where, const std::string& origin) {
   const ParamDecl& d = decl(key, where);
   values_[key] = validate(d, text, where);
   set_[key] = true;
+  origin_[key] = origin;
+}
+
+const std::string& ParamSet::origin(const std::string& key) const {
+  static const std::string kDefault = "(default)";
+  auto it = origin_.find(key);
+  return it == origin_.end() ? kDefault : it->second;
+}
+
+bool ParamSet::has(const std::string& key) const { return values_.count(key) > 0; }
+
+bool ParamSet::isList(const std::string& key) const {
+  for (const auto& d : decls_)
+    if (d.key == key) return d.kind == ParamDecl::Kind::kRealList || d.kind == ParamDecl::Kind::kChoiceList;
+  return false;
 }
 
 int64_t ParamSet::getInt(const std::string& key) const {
@@ -168,9 +255,16 @@ std::string ParamSet::toYaml() const {
       open.push_back(parts[i]);
     }
     const std::string& v = values_.at(d.key);
-    const bool quote = d.kind == ParamDecl::Kind::kString;
-    out << std::string(2 * (parts.size() - 1), ' ') << parts.back() << ": "
-        << (quote ? "\"" + v + "\"" : v) << "  # " << (d.unit.empty() ? "" : "[" + d.unit + "] ")
+    const bool quote = d.kind == ParamDecl::Kind::kString || d.kind == ParamDecl::Kind::kPath;
+    const bool list = d.kind == ParamDecl::Kind::kRealList || d.kind == ParamDecl::Kind::kChoiceList;
+    std::string shown = quote ? "\"" + v + "\"" : v;
+    if (list) {
+      shown = "[";
+      const auto parts_v = items(v);
+      for (size_t i = 0; i < parts_v.size(); ++i) shown += (i ? ", " : "") + parts_v[i];
+      shown += "]";
+    }
+    out << std::string(2 * (parts.size() - 1), ' ') << parts.back() << ": " << shown << "  # " << (d.unit.empty() ? "" : "[" + d.unit + "] ")
         << d.help << "\n";
   }
   return out.str();
@@ -181,8 +275,11 @@ std::string ParamSet::toMarkdown() const {
   out << "| key | default | allowed | unit | meaning |\n|---|---|---|---|---|\n";
   for (const auto& d : decls_) {
     std::string allowed = d.kind == ParamDecl::Kind::kChoice ? "" : rangeText(d);
-    if (d.kind == ParamDecl::Kind::kChoice)
+    if (d.kind == ParamDecl::Kind::kChoice || d.kind == ParamDecl::Kind::kChoiceList)
       for (size_t i = 0; i < d.choices.size(); ++i) allowed += (i ? " \\| " : "") + d.choices[i];
+    if (d.kind == ParamDecl::Kind::kRealList || d.kind == ParamDecl::Kind::kChoiceList)
+      allowed = "list" + std::string(allowed.empty() ? "" : " of ") + allowed;
+    if (d.kind == ParamDecl::Kind::kPath) allowed = "file";
     if (d.kind == ParamDecl::Kind::kBool) allowed = "true \\| false";
     out << "| `" << d.key << "` | " << d.default_value << " | " << allowed << " | " << d.unit
         << " | " << d.help << " |\n";

@@ -11,7 +11,10 @@
 namespace mm {
 
 struct ParamDecl {
-  enum class Kind { kInt, kDouble, kBool, kString, kChoice };
+  /// kPath: a file; kRealList: numbers "a,b,c" (a YAML sequence in a file); kChoiceList: names
+  /// out of `choices` (any name when there are none). A kDouble in seconds (unit "s") also reads
+  /// "5ms", "500us" and "0.01s".
+  enum class Kind { kInt, kDouble, kBool, kString, kChoice, kPath, kRealList, kChoiceList };
   std::string key;  ///< dotted path, e.g. "planning.time_limit"
   Kind kind;
   std::string default_value;  ///< as YAML text
@@ -31,6 +34,12 @@ class ParamSet {
   void loadYamlFile(const std::string& path);
   /// Sets one value from text; `where` names the origin for messages (e.g. "--set").
   void set(const std::string& key, const std::string& text, const std::string& where);
+  /// As set(), recording that the value came from `origin` (a file; "" for --set).
+  void set(const std::string& key, const std::string& text, const std::string& where, const std::string& origin);
+  /// Where the value came from: the file that set it, "" when set by --set, "(default)" if unset.
+  const std::string& origin(const std::string& key) const;
+  bool has(const std::string& key) const;
+  bool isList(const std::string& key) const;
 
   int64_t getInt(const std::string& key) const;
   double getDouble(const std::string& key) const;
@@ -49,6 +58,7 @@ class ParamSet {
   std::vector<ParamDecl> decls_;
   std::map<std::string, std::string> values_;  ///< validated text
   std::map<std::string, bool> set_;
+  std::map<std::string, std::string> origin_;
 };
 
 }  // namespace mm

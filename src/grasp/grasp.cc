@@ -5,6 +5,12 @@
 
 namespace mm {
 
+void GraspOptions::declare(ConfigArchive& a) {
+  a.value("depth", depth, {-0.02, 0.02}, "m", "TCP height above the object's center at the grasp");
+  a.list("yaw_offsets", yaw_offsets, {-1.0, 1.0}, "rad",
+         "yaw samples around each face-aligned grasp (0: aligned); every aligned candidate is tried before an offset one");
+}
+
 Mat3 topDownRotation(double psi) { return rotZ(psi) * rotX(M_PI); }
 
 namespace {

@@ -4,11 +4,14 @@
 #include <vector>
 #include <string>
 
+#include "core/config.h"
 #include "core/geometry.h"
 
 namespace mm {
 
 struct GraspOptions {
+  /// Keys depth, yaw_offsets (section "grasp").
+  void declare(ConfigArchive& a);
   double max_opening = 0.08;      ///< [m] full stroke of the gripper
   double width_margin = 0.01;     ///< [m] the object must be this much narrower than the stroke
   double depth = 0.0;             ///< [m] TCP above the object's center (positive = higher)

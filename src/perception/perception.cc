@@ -4,6 +4,13 @@
 
 namespace mm {
 
+void PerceptionOptions::declare(ConfigArchive& a) {
+  a.named("mode", mode, {{"hardcoded", PerceptionMode::kHardcoded}, {"ground_truth", PerceptionMode::kGroundTruth}},
+          "hardcoded: assume the object at the bin center, yaw 0; ground_truth: simulator poses");
+  a.value("noise_position", noise_position, {0.0, 0.05}, "m", "std of Gaussian noise on perceived x and y");
+  a.value("noise_yaw", noise_yaw, {0.0, 0.5}, "rad", "std of Gaussian noise on perceived yaw");
+}
+
 bool insideCrop(const ObjectState& o, const PerceptionOptions& opt) {
   if (opt.crop_half.x() <= 0 || opt.crop_half.y() <= 0) return true;
   const Vec3 p = opt.T_world_crop.inverse() * o.T_world_object.translation();

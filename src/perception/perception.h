@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "core/config.h"
 #include "core/geometry.h"
 #include "core/rng.h"
 
@@ -12,6 +13,8 @@ namespace mm {
 enum class PerceptionMode { kHardcoded, kGroundTruth };
 
 struct PerceptionOptions {
+  /// Keys mode, noise_position, noise_yaw (section "perception").
+  void declare(ConfigArchive& a);
   PerceptionMode mode = PerceptionMode::kGroundTruth;
   double noise_position = 0.0;  ///< [m] std of Gaussian noise on x and y
   double noise_yaw = 0.0;       ///< [rad] std of Gaussian noise on yaw

@@ -6,6 +6,11 @@
 
 namespace mm {
 
+void CartesianOptions::declare(ConfigArchive& a) {
+  a.value("cartesian_speed", speed, {0.01, 1.0}, "m/s", "TCP speed limit on straight-line moves");
+  a.value("cartesian_acceleration", acceleration, {0.05, 5.0}, "m/s^2", "TCP acceleration limit on straight-line moves");
+}
+
 CartesianPath planCartesianLine(const RobotModel& robot, CollisionChecker& checker, const VecX& q_start,
                                 const Pose& T_goal, const IkFunction& ik, const CartesianOptions& o) {
   CartesianPath p;

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "core/config.h"
 #include "core/failure.h"
 #include "planning/collision.h"
 #include "planning/trajectory.h"
@@ -15,6 +16,8 @@ namespace mm {
 using IkFunction = std::function<bool(const Pose& target, const VecX& seed, VecX& out)>;
 
 struct CartesianOptions {
+  /// Keys cartesian_speed, cartesian_acceleration (section "motion").
+  void declare(ConfigArchive& a);
   double step = 0.005;          ///< [m] Cartesian spacing of waypoints
   double max_joint_step = 0.1;  ///< [rad] larger jumps between waypoints mean a branch flip
   double speed = 0.2;           ///< [m/s] TCP speed limit

@@ -7,6 +7,11 @@
 #include "planning/planner.h"
 
 namespace mm {
+
+const std::vector<std::string>& optimizerNames() {
+  static const std::vector<std::string> names = {"none", "chomp"};
+  return names;
+}
 namespace {
 
 // The path resampled at equal joint-space arc length: m interior points plus the two ends.

@@ -14,6 +14,9 @@
 
 namespace mm {
 
+/// Post-processors after a planner, by name: "none", "chomp".
+const std::vector<std::string>& optimizerNames();
+
 struct ChompOptions {
   int waypoints = 40;         ///< interior waypoints after resampling
   int iterations = 60;

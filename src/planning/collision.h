@@ -96,6 +96,8 @@ double sphereSceneDistance(const PlanningScene& scene, const Vec3& c, double r, 
 /// scene's obstacles at q, by FCL; negative depth is reported as 0.
 double clearance(const RobotModel& robot, const PlanningScene& scene, const VecX& q);
 
+/// The checkers by name: "spheres", "spheres+fcl", "fcl".
+const std::vector<std::string>& checkerNames();
 /// "fcl", "spheres" or "spheres+fcl"; throws InputError for another name.
 std::unique_ptr<CollisionChecker> makeChecker(const std::string& name, const RobotModel& robot, const PlanningScene& scene,
                                               double padding);

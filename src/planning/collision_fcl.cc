@@ -193,6 +193,11 @@ double clearance(const RobotModel& robot, const PlanningScene& scene, const VecX
   return best;
 }
 
+const std::vector<std::string>& checkerNames() {
+  static const std::vector<std::string> names = {"spheres", "spheres+fcl", "fcl"};
+  return names;
+}
+
 std::unique_ptr<CollisionChecker> makeChecker(const std::string& name, const RobotModel& robot, const PlanningScene& scene,
                                               double padding) {
   if (name == "fcl") return makeFclChecker(robot, scene, padding);

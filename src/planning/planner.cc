@@ -68,6 +68,14 @@ double seconds(std::chrono::steady_clock::time_point a) {
 }  // namespace
 
 // Debian's OMPL 1.5.2 defines OMPL_VERSION as "", so build it from the numeric parts.
+void PlannerOptions::declare(ConfigArchive& a) {
+  a.choice("planner", planner, plannerNames(),
+           "OMPL planner (optimizing ones stop at their first solution; planners other than RRTConnect repeat exactly only with jobs: 1)");
+  a.value("time_limit", time_limit, {0.01, 600.0}, "s", "wall-clock cap per planning call (reaching it is recorded)");
+  a.value("simplify", simplify, "shortcut and reduce the planned path");
+  a.value("resolution", resolution, {0.001, 0.2}, "rad", "edge validation step");
+}
+
 std::vector<std::string> plannerNames() {
   return {"RRTConnect", "RRTstar", "InformedRRTstar", "BITstar", "ABITstar", "AITstar", "PRMstar", "LazyPRMstar", "KPIECE1"};
 }

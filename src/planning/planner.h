@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "core/config.h"
 #include "core/failure.h"
 #include "planning/collision.h"
 #include "robot/robot_model.h"
@@ -17,6 +18,8 @@ std::vector<std::string> plannerNames();
 void seedOmplGlobally(uint32_t seed);
 
 struct PlannerOptions {
+  /// Keys planner, time_limit, simplify, resolution (section "planning").
+  void declare(ConfigArchive& a);
   std::string planner = "RRTConnect";  ///< one of plannerNames()
   double time_limit = 5.0;        ///< [s] wall-clock safety cap; reaching it is recorded
   double resolution = 0.02;       ///< [rad] edge validation step (joint-space distance)

@@ -141,6 +141,11 @@ class MockHardware final : public HardwareBase {
 
 }  // namespace
 
+const std::vector<std::string>& hardwareNames() {
+  static const std::vector<std::string> names = {"mujoco", "mock"};
+  return names;
+}
+
 std::unique_ptr<Hardware> makeMujocoHardware(SimWorld& world, const RobotModel& robot, std::vector<int> active) {
   return std::make_unique<MujocoHardware>(world, robot, std::move(active));
 }

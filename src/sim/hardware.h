@@ -48,6 +48,9 @@ class Hardware {
   virtual const std::string& instabilityReason() const = 0;
 };
 
+/// The backends by name: "mujoco", "mock".
+const std::vector<std::string>& hardwareNames();
+
 /// `active` lists the objects in play this trial (the others are parked off the table).
 std::unique_ptr<Hardware> makeMujocoHardware(SimWorld& world, const RobotModel& robot, std::vector<int> active);
 std::unique_ptr<Hardware> makeMockHardware(SimWorld& world, const RobotModel& robot, std::vector<int> active);

@@ -4,6 +4,14 @@
 
 namespace mm {
 
+void SpawnOptions::declare(ConfigArchive& a) {
+  a.value("count_min", count_min, {1, 6}, "", "fewest objects in the bin");
+  a.value("count_max", count_max, {1, 6}, "", "most objects in the bin (the scene holds 6)");
+  a.value("wall_margin", wall_margin, {0.0, 0.1}, "m", "object centers keep this far from the bin walls");
+  a.value("min_spacing", min_spacing, {0.05, 0.3}, "m", "least distance between object centers");
+  a.value("settle_time", settle_time, {0.0, 5.0}, "s", "simulated settling after spawning");
+}
+
 SpawnResult spawnObjects(SimWorld& w, const RobotModel& robot, const Pose& T_region, const Vec3& half, Rng& rng,
                          const SpawnOptions& o) {
   SpawnResult r;

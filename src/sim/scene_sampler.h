@@ -5,12 +5,15 @@
 #include <string>
 #include <vector>
 
+#include "core/config.h"
 #include "core/rng.h"
 #include "sim/sim_world.h"
 
 namespace mm {
 
 struct SpawnOptions {
+  /// Keys count_min, count_max, wall_margin, min_spacing, settle_time (section "objects").
+  void declare(ConfigArchive& a);
   int count_min = 1, count_max = 3;
   double wall_margin = 0.07;   ///< [m] object centers keep this far from the region's edges
   double min_spacing = 0.11;   ///< [m] between object centers

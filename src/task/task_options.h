@@ -2,6 +2,7 @@
 #pragma once
 #include <string>
 
+#include "core/config.h"
 #include "grasp/grasp.h"
 #include "kinematics/ik.h"
 #include "planning/cartesian.h"
@@ -11,6 +12,8 @@
 namespace mm {
 
 struct TaskOptions {
+  /// Keys in the sections grasp, motion, kinematics, planning, success and place.
+  void declare(ConfigArchive& a);
   PlannerOptions planner;
   double padding = 0.01;                 ///< [m] robot inflation against the world when planning
   std::string checker = "spheres+fcl";   ///< collision checker: "spheres", "spheres+fcl" or "fcl"
@@ -31,7 +34,6 @@ struct TaskOptions {
   bool weld = false;                     ///< weld-on-grasp (attach plugin) instead of friction
   double drop_distance = 0.03;           ///< [m] object this far from its in-hand pose = dropped
   double settle_time = 0.5;              ///< [s] simulated rest before the evaluation
-  double max_tracking_error = 0.05;      ///< [rad] IsSystemHealthy fails beyond this
   // The place area: slots in a grid centred on the place target (ComputePlacePosition).
   int place_rows = 1, place_columns = 3;
   double place_pitch = 0.06;             ///< [m] between slot centres

@@ -1,0 +1,60 @@
+#include "task/task_options.h"
+
+#include "planning/chomp.h"
+#include "planning/collision.h"
+#include "planning/time_parameterization.h"
+
+namespace mm {
+
+void TaskOptions::declare(ConfigArchive& a) {
+  a.enter("grasp");
+  a.named("mode", weld, {{"friction", false}, {"weld", true}},
+          "friction: held by finger force; weld: attached on grasp (the source's attach plugin)");
+  a.value("force", grasp_force, {1.0, 70.0}, "N", "finger force limit while grasping (the hand's limit is 70 N)");
+  a.value("max_candidates", max_grasp_candidates, {1, 64}, "", "grasp candidates tried per object before the pick fails");
+  a.value("finger_margin", finger_margin, {0.002, 0.04}, "m",
+          "fingers open this much wider than the object's half width before the approach");
+  grasp.declare(a);
+  a.leave();
+
+  a.enter("motion");
+  a.value("approach_distance", approach_distance, {0.02, 0.3}, "m", "pre-grasp and pre-place height above the grasp and place poses");
+  a.value("lift_height", lift_height, {0.02, 0.4}, "m", "straight lift after the grasp");
+  a.value("retreat_distance", retreat_distance, {0.02, 0.3}, "m", "straight retreat after the release (and MoveToSafe's)");
+  a.value("place_clearance", place_clearance, {0.0, 0.05}, "m", "object bottom above the tray at the release");
+  a.value("velocity_scaling", scaling.velocity, {0.01, 1.0}, "", "fraction of the joint velocity limits");
+  a.value("acceleration_scaling", scaling.acceleration, {0.01, 1.0}, "", "fraction of the joint acceleration limits (jerk scales alike)");
+  cartesian.declare(a);
+  a.leave();
+
+  a.enter("kinematics");
+  a.choice("solver", ik_solver, ikSolverNames(), "IK solver for grasp and place poses (see the IK comparison in the README)");
+  a.leave();
+
+  a.enter("planning");
+  planner.declare(a);
+  a.choice("checker", checker, checkerNames(),
+           "collision checker: our spheres (conservative), spheres confirmed by FCL (exact), or FCL");
+  a.choice("time_parameterization", time_parameterization, timeParameterizationNames(),
+           "time parameterization of joint-space paths: jerk_limited passes through waypoints, jerk_limited_stop and "
+           "trapezoidal rest at each, totg blends corners within 0.05 rad (samples off the planned path are collision-checked)");
+  a.choice("optimizer", optimizer, optimizerNames(),
+           "optimizing post-processor after the planner (CHOMP-style; time-parameterize its dense paths with totg)");
+  a.value("padding", padding, {0.0, 0.1}, "m", "robot inflation against the world");
+  a.leave();
+
+  a.enter("success");
+  a.value("position_tolerance", tolerance_position, {0.001, 0.2}, "m", "horizontal distance from the place target counted as placed");
+  a.value("orientation_tolerance", tolerance_orientation, {0.001, 3.1416}, "rad", "orientation error counted as placed (about its symmetry)");
+  a.value("settle_time", settle_time, {0.0, 5.0}, "s", "simulated rest before the placed objects are measured");
+  a.leave();
+
+  a.enter("place");
+  a.value("rows", place_rows, {1, 20}, "",
+          "rows (along y) of the place grid ComputePlacePosition fills, centred on the scene's place_target, nearest slots first");
+  a.value("columns", place_columns, {1, 20}, "", "columns (along x) of the place grid (the quickstart tray holds a row of three 5 cm cubes)");
+  a.value("pitch", place_pitch, {0.02, 0.5}, "m", "distance between neighbouring slots of the place grid");
+  a.leave();
+}
+
+}  // namespace mm
