@@ -354,8 +354,7 @@ class WhileDoElse final : public ControlNode {
     }
     if (s == NodeStatus::kRunning) return s;
     resetChildren();
-    if (s == NodeStatus::kIdle) throw RuntimeError("Node [" + name() + "]: the condition was skipped (WhileDoElse has no status for that)");
-    return s;
+    return s;  // IDLE when the condition was skipped: executeTick refuses it, as in BT.CPP
   }
 };
 

@@ -28,7 +28,9 @@ struct NodeManifest {
   int min_children = 0, max_children = 0;  ///< -1: no upper bound
 };
 
-/// A loaded, checked set of behavior trees (one file and its includes).
+/// A loaded, checked set of behavior trees (one file and its includes). Workers may instantiate
+/// trees from one document concurrently: loading built the tree once, so tinyxml2 has already
+/// decoded every string it lazily decodes in place on first access, and later reads are const.
 class TreeDocument {
  public:
   TreeDocument();
@@ -49,6 +51,8 @@ class Factory {
   /// A registry with BT.CPP's built-in nodes.
   Factory();
   ~Factory();
+  Factory(const Factory&) = delete;  // builders may hold references to what they were registered with
+  Factory& operator=(const Factory&) = delete;
 
   void registerNode(NodeManifest manifest);
   /// T derives from one of the node kinds, has `static PortsList providedPorts()` and a

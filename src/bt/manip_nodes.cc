@@ -342,9 +342,27 @@ class SelectNextGrasp final : public TaskAction {
   }
 };
 
-class PlanMTCPick final : public TaskAction {
+// Planning that starts from where the arm rests: while a halted motion still brakes, it waits
+// (RUNNING) for the arm to come to rest, then plans (no simulated time).
+class PlanningAction : public StatefulActionNode {
  public:
-  using TaskAction::TaskAction;
+  PlanningAction(const std::string& name, const NodeConfig& config, TaskNodeEnv& env)
+      : StatefulActionNode(name, config), env_(env) {}
+
+ protected:
+  virtual NodeStatus run(TrialContext& c) = 0;
+  NodeStatus onStart() final {
+    env_.ctx->actionStarted();
+    return onRunning();
+  }
+  NodeStatus onRunning() final { return env_.ctx->executor.busy() ? NodeStatus::kRunning : run(*env_.ctx); }
+  void onHalted() final {}
+  TaskNodeEnv& env_;
+};
+
+class PlanMTCPick final : public PlanningAction {
+ public:
+  using PlanningAction::PlanningAction;
   static PortsList providedPorts() {
     return {inputPort<GraspSolution>("grasp_pose", "a selected grasp (SelectBestGrasp, SelectNextGrasp)"),
             inputPort<double>("approach_dist", "0.10", "[m] pre-grasp height above the grasp")};
@@ -357,7 +375,7 @@ class PlanMTCPick final : public TaskAction {
     if (std::abs(approach - g.approach_distance) > 1e-9) {
       GraspSolution again;
       const Failure f = selectGrasp(c, g.object, {g.candidate}, 0, again, approach);
-      if (!f.ok()) return statusOf(c.fail(f));
+      if (!f.ok()) return c.fail(f), NodeStatus::kFailure;
       g = again;
     }
     Plan p;
@@ -367,9 +385,9 @@ class PlanMTCPick final : public TaskAction {
   }
 };
 
-class PlanMTCPlace final : public TaskAction {
+class PlanMTCPlace final : public PlanningAction {
  public:
-  using TaskAction::TaskAction;
+  using PlanningAction::PlanningAction;
   static PortsList providedPorts() { return {inputPort<Pose>("place_pose", "where the held object should rest")}; }
 
  protected:

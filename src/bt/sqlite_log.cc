@@ -8,8 +8,10 @@
 
 namespace mm::bt {
 
-TransitionRecorder::TransitionRecorder(Tree& tree) {
-  tree.addObserver([this, &tree](const TreeNode& n, NodeStatus prev, NodeStatus now) {
+TransitionRecorder::~TransitionRecorder() { tree_.removeObserver(observer_); }
+
+TransitionRecorder::TransitionRecorder(Tree& tree) : tree_(tree) {
+  observer_ = tree.addObserver([this, &tree](const TreeNode& n, NodeStatus prev, NodeStatus now) {
     const auto t_us = static_cast<int64_t>(std::llround(tree.now() * 1e6));
     last_ = std::max(last_ + 1, t_us);  // the primary key: strictly increasing
     if (started_.size() <= n.uid()) started_.resize(n.uid() + 1, 0);

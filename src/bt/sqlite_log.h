@@ -22,8 +22,11 @@ class TransitionRecorder {
     int64_t duration_us;
     int state;
   };
-  /// Subscribes to `tree`'s status changes (the tree must outlive nothing of ours: we copy).
+  /// Subscribes to `tree`'s status changes until destroyed (the tree must outlive the recorder).
   explicit TransitionRecorder(Tree& tree);
+  ~TransitionRecorder();
+  TransitionRecorder(const TransitionRecorder&) = delete;
+  TransitionRecorder& operator=(const TransitionRecorder&) = delete;
   const std::vector<Transition>& transitions() const { return transitions_; }
   /// Writes `file` (replaced if it exists; written to a temporary name and renamed). `date` is
   /// the Definitions date ("YYYY-MM-DD HH:MM:SS"), `xml` the tree as Factory::treeToXml gives it.
@@ -31,6 +34,8 @@ class TransitionRecorder {
   void write(const std::string& file, const Tree& tree, const std::string& date, const std::string& xml) const;
 
  private:
+  Tree& tree_;
+  int observer_ = 0;
   std::vector<Transition> transitions_;
   std::vector<int64_t> started_;  // per UID: when its current RUNNING spell began
   int64_t last_ = 0;

@@ -32,8 +32,18 @@ std::vector<TreeNode*> Tree::nodes() const {
   return out;
 }
 
+int Tree::addObserver(StatusObserver observer) {
+  observers_.push_back({next_observer_, std::move(observer)});
+  return next_observer_++;
+}
+
+void Tree::removeObserver(int id) {
+  observers_.erase(std::remove_if(observers_.begin(), observers_.end(), [id](const auto& o) { return o.first == id; }),
+                   observers_.end());
+}
+
 void Tree::notify(const TreeNode& node, NodeStatus prev, NodeStatus now) const {
-  for (const auto& o : observers_) o(node, prev, now);
+  for (const auto& o : observers_) o.second(node, prev, now);
 }
 
 double Tree::now() const {

@@ -44,7 +44,9 @@ class Tree {
   std::vector<TreeNode*> nodes() const;
   const std::string& mainTreeId() const { return subtrees_.front().tree_id; }
 
-  void addObserver(StatusObserver observer) { observers_.push_back(std::move(observer)); }
+  /// Calls `observer` on every status change; returns its id for removeObserver().
+  int addObserver(StatusObserver observer);
+  void removeObserver(int id);
   void notify(const TreeNode& node, NodeStatus prev, NodeStatus now) const;
 
   // Time: seconds on the tree's clock (wall time unless set).
@@ -70,11 +72,10 @@ class Tree {
   uint16_t nextUid() { return ++uid_counter_; }
 
  private:
-  std::vector<std::unique_ptr<Blackboard>> blackboards_;
-  std::vector<std::unique_ptr<TreeNode>> nodes_;
-  std::vector<Subtree> subtrees_;
-  TreeNode* root_ = nullptr;
-  std::vector<StatusObserver> observers_;
+  // Declared before the nodes so that they are destroyed after them: a node's destructor may
+  // cancel its timer.
+  std::vector<std::pair<int, StatusObserver>> observers_;
+  int next_observer_ = 1;
   std::function<double()> clock_;
   struct Timer {
     int id;
@@ -83,6 +84,10 @@ class Tree {
   };
   std::vector<Timer> timers_;
   int next_timer_ = 1;
+  std::vector<std::unique_ptr<Blackboard>> blackboards_;
+  std::vector<std::unique_ptr<TreeNode>> nodes_;
+  std::vector<Subtree> subtrees_;
+  TreeNode* root_ = nullptr;
   bool wake_up_ = false;
   uint16_t uid_counter_ = 0;
 };

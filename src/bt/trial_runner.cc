@@ -14,13 +14,16 @@ void TreeRunOptions::declare(ConfigArchive& a) {
 TreeRunResult runTree(Tree& tree, TrialContext& ctx, const TreeRunOptions& o) {
   TreeRunResult r;
   tree.setClock([&ctx] { return ctx.simTime(); });
-  std::string last_failed;  // the last action or condition that failed, to explain a FAILURE
-  tree.addObserver([&](const TreeNode& n, NodeStatus, NodeStatus now) {
-    if (now == NodeStatus::kFailure && (n.kind() == NodeKind::kAction || n.kind() == NodeKind::kCondition))
+  // The last leaf or decorator that failed, to explain a FAILURE no action recorded.
+  std::string last_failed;
+  const int observer = tree.addObserver([&](const TreeNode& n, NodeStatus, NodeStatus now) {
+    if (now == NodeStatus::kFailure && n.kind() != NodeKind::kControl && n.kind() != NodeKind::kSubTree)
       last_failed = n.fullPath() + " [" + n.registrationId() + "]";
   });
   constexpr double kEps = 1e-9;
-  constexpr int kMaxTicksAtOneInstant = 1000;  // a tree that keeps waking itself without time passing
+  // A tree that keeps waking itself without time passing gets this many ticks at one instant,
+  // then waits for the next regular tick.
+  constexpr int kMaxTicksAtOneInstant = 100;
   int ticks_now = 0;
   double last_tick_time = -1;
   auto tick = [&] {
@@ -37,8 +40,9 @@ TreeRunResult runTree(Tree& tree, TrialContext& ctx, const TreeRunOptions& o) {
     while (r.status == NodeStatus::kRunning) {
       const double next_tick = ctx.simTime() + o.tick_period;
       bool wake = false;
+      const bool wakes_allowed = ticks_now < kMaxTicksAtOneInstant;
       while (!wake) {
-        if (tree.fireDueTimers()) {  // Sleep, Delay, Timeout: due now
+        if (tree.fireDueTimers() && wakes_allowed) {  // Sleep, Delay, Timeout: due now
           wake = true;
           break;
         }
@@ -49,12 +53,10 @@ TreeRunResult runTree(Tree& tree, TrialContext& ctx, const TreeRunOptions& o) {
           break;
         }
         const Executor::Step s = ctx.executor.step();
-        wake = s != Executor::Step::kStepped;  // a motion ended: the action that waits on it decides now
+        // A motion ended: the action that waits on it decides now.
+        wake = s != Executor::Step::kStepped && wakes_allowed;
       }
       if (r.timeout) break;
-      if (wake && ticks_now >= kMaxTicksAtOneInstant) {  // let time pass before ticking again
-        ctx.executor.step();
-      }
       tick();
     }
   } catch (const std::exception& e) {
@@ -63,11 +65,14 @@ TreeRunResult runTree(Tree& tree, TrialContext& ctx, const TreeRunOptions& o) {
   const bool running = tree.root()->status() == NodeStatus::kRunning || r.timeout || !r.error.empty();
   if (running) {
     try {
-      tree.haltTree();  // running actions stop; a moving arm brakes (finished by finishTrial)
+      tree.haltTree();  // running actions stop; a moving arm brakes
     } catch (const std::exception& e) {
       if (r.error.empty()) r.error = std::string("while halting the tree: ") + e.what();
     }
   }
+  tree.removeObserver(observer);
+  // The arm comes to rest (a halted motion brakes to its end) before the trial's failure is told.
+  while (ctx.executor.busy()) ctx.executor.step();
   std::ostringstream budget;
   budget << o.time_budget;
   if (r.timeout) {
@@ -75,8 +80,7 @@ TreeRunResult runTree(Tree& tree, TrialContext& ctx, const TreeRunOptions& o) {
   } else if (!r.error.empty()) {
     ctx.fail({"tree", FailureKind::kTree, "error in the tree: " + r.error});
   } else if (r.status == NodeStatus::kFailure) {
-    const bool explained = !ctx.out.failures.empty() && !ctx.out.failures.back().handled;
-    if (!explained)
+    if (!ctx.unhandledFailure())
       ctx.fail({"tree", FailureKind::kTree,
                 "the tree returned FAILURE" + (last_failed.empty() ? std::string() : " (last failing node: " + last_failed + ")")});
   }

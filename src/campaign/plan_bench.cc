@@ -404,7 +404,8 @@ std::string runPlanBench(const PlanBenchOptions& o) {
   std::ofstream(fs::path(o.out_dir) / "plan_bench.json") << j.dump(2) << "\n";
   std::ofstream(fs::path(o.out_dir) / "plan_bench.md") << md.str();
 
-  // ---- OMPL benchmark log (grammar: OMPL's doc "The benchmark logfile format") ----
+  // ---- OMPL benchmark log (OMPL's "benchmark logfile format"; checked by loading it with OMPL's own
+  // ompl_benchmark_statistics into the database Planner Arena reads, in tests/campaign/plan_bench_test.cc) ----
   std::ofstream log(fs::path(o.out_dir) / "plan_bench.log");
   char host[256] = "";
   gethostname(host, sizeof host - 1);
@@ -414,8 +415,8 @@ std::string runPlanBench(const PlanBenchOptions& o) {
   log << "OMPL version " << omplVersion() << "\n";
   log << "Experiment minimanip_bin_scene\n";
   log << "2 experiment properties\n";
-  log << "problems INTEGER=" << problems.size() << "\n";
-  log << "padding REAL=" << o.padding << "\n";
+  log << "problems INTEGER = " << problems.size() << "\n";  // "name TYPE = value", as OMPL writes and parses
+  log << "padding REAL = " << o.padding << "\n";
   log << "Running on " << host << "\n";
   log << "Starting at " << date << "\n";
   log << "<<<|\n" << o.command_line << "\n|>>>\n";

@@ -45,6 +45,8 @@ class TrialRunner {
   /// `log_dir` receives trial_<N>.db3 files; `date` is the campaign's start ("YYYY-MM-DD HH:MM:SS").
   TrialRunner(const Experiment& e, const Cell& cell, const bt::TreeDocument& tree, std::string log_dir, std::string date);
   ~TrialRunner();
+  TrialRunner(const TrialRunner&) = delete;  // the nodes hold a reference to env_
+  TrialRunner& operator=(const TrialRunner&) = delete;
   /// Runs trial `trial` on `hw` (objects spawned). Returns its outcome; `bt_log` gets the .db3
   /// path when one was written.
   TrialOutcome run(Hardware& hw, uint64_t trial, std::string& bt_log);

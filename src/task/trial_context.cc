@@ -64,6 +64,10 @@ StageRecord& TrialContext::stage(const std::string& name) {
 }
 
 Failure TrialContext::fail(const Failure& f) {
+  if (f.kind == FailureKind::kHalted) {  // the tree stopped it: recorded, but not the trial's failure
+    out.failures.push_back({f, simTime(), true});
+    return f;
+  }
   out.failure_stage = f.stage;
   out.failure_reason = f.reason;
   out.failure_kind = f.kind;
@@ -72,6 +76,12 @@ Failure TrialContext::fail(const Failure& f) {
   if (!out.stages.empty()) out.stages.back().ok = false;
   out.failures.push_back({f, simTime(), false});
   return f;
+}
+
+const RecordedFailure* TrialContext::unhandledFailure() const {
+  for (auto it = out.failures.rbegin(); it != out.failures.rend(); ++it)
+    if (it->failure.kind != FailureKind::kHalted) return it->handled ? nullptr : &*it;
+  return nullptr;
 }
 
 void TrialContext::actionStarted() {

@@ -50,6 +50,7 @@ struct Plan {
   std::string name;  ///< "pick", "place", "home", "safe", "gripper"
   std::vector<PlanStep> steps;
   TimeBucket bucket = TimeBucket::kPick;
+  VecX q_start;                            ///< where the arm must rest when it starts (as planned)
   VecX q_end;                              ///< where the arm ends (as planned)
   int object = -1;                         ///< pick: the object grasped; place: the object carried
   Vec3 object_half = Vec3::Zero();         ///< pick: its half sizes [m]
@@ -134,7 +135,11 @@ class TrialContext {
   // Bookkeeping.
   StageRecord& stage(const std::string& name);
   /// Records an action's failure (the trial's failure unless the tree recovers) and returns it.
+  /// A halt (kHalted) is only listed: the tree stopped the action, so the trial's failure (and
+  /// any recovery) is whatever made it do so.
   Failure fail(const Failure& f);
+  /// The last failure recorded that no action went on after (not a halt), or nullptr.
+  const RecordedFailure* unhandledFailure() const;
   /// An action is starting: failures recorded so far were handled by the tree.
   void actionStarted();
   double& computeBucket(TimeBucket b);

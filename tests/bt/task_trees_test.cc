@@ -351,3 +351,43 @@ TEST(OwnTrees, PreconditionsAndPostConditionsOnTaskNodes) {
 
 }  // namespace
 }  // namespace mm
+
+namespace mm {
+namespace {
+
+TEST(OwnTrees, ATimeoutWhileTheArmMovesIsRecordedAsTimeoutNotAsTheHalt) {
+  const Result r = runTree("pick_place.xml", {"bt.time_budget=1"}, 0);
+  EXPECT_EQ(r.out.tree_status, "TIMEOUT");
+  EXPECT_EQ(r.out.failure_kind, FailureKind::kTimeout) << describe(r.out);
+  EXPECT_THAT(r.out.failures, ::testing::Contains(::testing::Field(
+                                 &RecordedFailure::failure, ::testing::Field(&Failure::kind, FailureKind::kHalted))));
+  EXPECT_FALSE(r.out.recovery_needed);
+}
+
+TEST(OwnTrees, PlanningAfterAHaltWaitsForTheArmToStopAndPlansFromThere) {
+  // The first ExecuteMTCPlan is halted at 0.5 s (the arm brakes); the retry, in the same tick,
+  // waits in PlanMTCPick for the arm to come to rest, plans from where it stopped (a plan from
+  // the old start would be refused as a jump) and completes the pick without a timeout.
+  const Result r = runTree(wrap(R"(
+      <Sequence>
+        <Script code="t := 500"/>
+        <TriggerPointCloud/>
+        <WaitForGraspCandidates candidates="{list}"/>
+        <SelectBestGrasp candidates="{list}" selected="{g}"/>
+        <RetryUntilSuccessful num_attempts="2">
+          <Sequence>
+            <PlanMTCPick grasp_pose="{g}"/>
+            <Timeout msec="{t}" _onFailure="t := 0"><ExecuteMTCPlan/></Timeout>
+          </Sequence>
+        </RetryUntilSuccessful>
+        <PlanAndExecutePlace place_pose="{place_target}"/>
+        <MoveToHome/>
+      </Sequence>)"),
+                           {"motion.velocity_scaling=1.0", "motion.acceleration_scaling=1.0"}, 0);
+  EXPECT_TRUE(r.out.success) << describe(r.out);
+  EXPECT_THAT(r.out.failures, ::testing::Contains(::testing::Field(
+                                 &RecordedFailure::failure, ::testing::Field(&Failure::kind, FailureKind::kHalted))));
+}
+
+}  // namespace
+}  // namespace mm

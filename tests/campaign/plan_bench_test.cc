@@ -1,5 +1,5 @@
-// plan-bench end to end on a small problem set, and its OMPL log checked against the grammar of
-// OMPL's "benchmark logfile format" (the EBNF ompl_benchmark_statistics.py follows).
+// plan-bench end to end on a small problem set, and its OMPL log loaded by OMPL's own
+// ompl_benchmark_statistics into the database Planner Arena reads.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -7,7 +7,6 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <regex>
 #include <sstream>
 
 #include "campaign/plan_bench.h"
@@ -17,74 +16,23 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A recursive-descent reading of the log by the EBNF; throws std::runtime_error with the line.
-struct LogParser {
-  std::vector<std::string> lines;
-  size_t i = 0;
-  int planners = 0, runs_total = 0;
-  explicit LogParser(const std::string& path) {
-    std::ifstream in(path);
-    for (std::string l; std::getline(in, l);) lines.push_back(l);
-  }
-  const std::string& next() {
-    if (i >= lines.size()) throw std::runtime_error("unexpected end of log");
-    return lines[i++];
-  }
-  void expect(const std::regex& re, const std::string& what) {
-    const std::string& l = next();
-    if (!std::regex_match(l, re)) throw std::runtime_error("line " + std::to_string(i) + ": expected " + what + ", got '" + l + "'");
-  }
-  int expectCount(const std::string& suffix) {
-    const std::string& l = next();
-    std::smatch m;
-    if (!std::regex_match(l, m, std::regex("([0-9]+)" + suffix)))
-      throw std::runtime_error("line " + std::to_string(i) + ": expected '<int>" + suffix + "', got '" + l + "'");
-    return std::stoi(m[1]);
-  }
-  void multiLine() {
-    expect(std::regex("<<<\\|"), "<<<|");
-    while (next() != "|>>>") {
-    }
-  }
-  void parse() {
-    const std::string num = "(-?[0-9.]+(e[-+]?[0-9]+)?|inf|nan)";
-    expect(std::regex("\\S+ version \\S+"), "version");
-    expect(std::regex("Experiment \\S+"), "experiment");
-    if (std::regex_match(lines[i], std::regex("[0-9]+ experiment properties"))) {
-      const int n = expectCount(" experiment properties");
-      for (int k = 0; k < n; ++k) expect(std::regex("\\S+ (BOOLEAN|INTEGER|REAL)=" + num), "experiment property");
-    }
-    expect(std::regex("Running on .+"), "hostname");
-    expect(std::regex("Starting at .+"), "date");
-    multiLine();                                      // setup
-    if (lines[i] == "<<<|") multiLine();              // cpuinfo
-    expect(std::regex("[0-9]+ is the random seed"), "random seed");
-    expect(std::regex(num + " seconds per run"), "time limit");
-    expect(std::regex(num + " MB per run"), "memory limit");
-    int runs = -1;
-    if (std::regex_match(lines[i], std::regex("[0-9]+ runs per planner"))) runs = expectCount(" runs per planner");
-    expect(std::regex(num + " seconds spent to collect the data"), "total time");
-    if (std::regex_match(lines[i], std::regex("[0-9]+ enum type"))) {
-      const int n = expectCount(" enum type");
-      for (int k = 0; k < n; ++k) expect(std::regex("\\S+(\\|[^|]+)+"), "enum");
-    }
-    planners = expectCount(" planners");
-    for (int p = 0; p < planners; ++p) {
-      expect(std::regex("\\S+"), "planner name");
-      const int common = expectCount(" common properties");
-      for (int k = 0; k < common; ++k) expect(std::regex(".+ = .*"), "planner property");
-      const int props = expectCount(" properties for each run");
-      for (int k = 0; k < props; ++k) expect(std::regex(".+ (BOOLEAN|INTEGER|REAL)"), "run property");
-      const int n = expectCount(" runs");
-      if (runs >= 0 && n != runs) throw std::runtime_error("runs per planner mismatch");
-      const std::regex data("((" + num + ")?; ){" + std::to_string(props) + "}");
-      for (int k = 0; k < n; ++k) expect(data, std::to_string(props) + " '; '-terminated values");
-      runs_total += n;
-      expect(std::regex("\\."), "'.' closing the planner block");
-    }
-    if (i != lines.size()) throw std::runtime_error("trailing lines after the last planner");
-  }
-};
+std::string shell(const std::string& cmd, int& code) {
+  std::string out;
+  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
+  char buf[4096];
+  while (size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
+  code = WEXITSTATUS(pclose(p));
+  return out;
+}
+
+// One value of a query on an sqlite database (the sqlite3 tool).
+std::string sql(const fs::path& db, const std::string& query) {
+  int code = 0;
+  std::string out = shell("sqlite3 " + db.string() + " \"" + query + "\"", code);
+  EXPECT_EQ(code, 0) << out;
+  while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
+  return out;
+}
 
 TEST(PlanBench, SmallRunWritesResultsAndAParsableOmplLog) {
   const fs::path out = fs::temp_directory_path() / ("mm_planbench_" + std::to_string(getpid()));
@@ -99,14 +47,26 @@ TEST(PlanBench, SmallRunWritesResultsAndAParsableOmplLog) {
   const std::string md = runPlanBench(o);
   EXPECT_THAT(md, ::testing::HasSubstr("| RRTConnect | spheres |"));
   EXPECT_THAT(md, ::testing::HasSubstr("jerk_limited"));
-  LogParser log((out / "plan_bench.log").string());
-  ASSERT_NO_THROW(log.parse());
-  EXPECT_EQ(log.planners, 4);
   const auto j = nlohmann::json::parse(std::ifstream(out / "plan_bench.json"));
   ASSERT_EQ(j["combinations"].size(), 4u);
   const int problems = j["problems"];
   EXPECT_GE(problems, 3);
-  EXPECT_EQ(log.runs_total, 4 * problems);
+  // The OMPL log through OMPL's own tool (Debian's ompl-demos), into the database Planner Arena reads.
+  int code = 0;
+  const fs::path db = out / "bench.db";
+  const std::string said = shell("ompl_benchmark_statistics " + (out / "plan_bench.log").string() + " -d " + db.string(), code);
+  ASSERT_EQ(code, 0) << said;
+  EXPECT_EQ(sql(db, "SELECT count(*) FROM experiments"), "1");
+  EXPECT_EQ(sql(db, "SELECT name FROM experiments"), "minimanip_bin_scene");
+  EXPECT_EQ(sql(db, "SELECT problems FROM experiments"), std::to_string(problems));
+  EXPECT_EQ(sql(db, "SELECT padding FROM experiments"), "0.01");
+  EXPECT_EQ(sql(db, "SELECT runcount FROM experiments"), std::to_string(problems));
+  EXPECT_EQ(sql(db, "SELECT count(*) FROM plannerConfigs"), "4");
+  EXPECT_EQ(sql(db, "SELECT name FROM plannerConfigs ORDER BY id LIMIT 1"), "geometric_RRTConnect_spheres");
+  EXPECT_EQ(sql(db, "SELECT count(*) FROM runs"), std::to_string(4 * problems));
+  EXPECT_EQ(sql(db, "SELECT count(*) FROM runs WHERE solved = 1"), std::to_string(4 * problems));
+  EXPECT_EQ(sql(db, "SELECT count(*) FROM runs WHERE time > 0 AND trajectory_duration_jerk_limited > 0"),
+            std::to_string(4 * problems));
   for (const auto& c : j["combinations"]) {
     EXPECT_EQ(c["success"], 1.0) << c["planner"] << "+" << c["checker"];
     for (const auto& tp : c["time_parameterizations"]) EXPECT_EQ(tp["within_limits"], tp["n"]);
