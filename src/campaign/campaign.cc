@@ -14,10 +14,10 @@
 #include <iostream>
 #include <map>
 #include <mutex>
-#include <nlohmann/json.hpp>
 #include <sstream>
 #include <thread>
 
+#include "campaign/record.h"
 #include "campaign/stats.h"
 #include "campaign/trial.h"
 #include "core/error.h"
@@ -29,76 +29,17 @@ namespace mm {
 namespace {
 
 namespace fs = std::filesystem;
-using json = nlohmann::json;
-constexpr int kSchema = 1;
 
-json nullable(const std::string& s) { return s.empty() ? json(nullptr) : json(s); }
-
-json trialJson(const Experiment& e, uint64_t trial, const SpawnResult& spawn, const TrialOutcome& o,
-               const std::string& bt_log) {
-  json j;
-  j["schema"] = kSchema;
-  j["trial"] = trial;
-  j["seed"] = e.seed;
-  j["hardware"] = e.hardware;
-  j["success"] = o.success;
-  j["failure_stage"] = nullable(o.failure_stage);
-  j["failure_reason"] = nullable(o.failure_reason);
-  j["failure_kind"] = o.success ? json(nullptr) : json(failureKindName(o.failure_kind));
-  j["tree"] = nullable(o.tree);
-  j["tree_status"] = nullable(o.tree_status);
-  j["ticks"] = o.ticks;
-  j["sim_unstable"] = o.sim_unstable;
-  j["dropped"] = o.dropped;
-  j["objects_in_bin"] = spawn.active.size();
-  j["spawn_attempts"] = spawn.attempts;
-  j["target_object"] = o.target_object;
-  j["grasp_candidates_tried"] = o.grasp_candidates_tried;
-  j["grasp_opening"] = o.grasp_opening;
-  // The source's TrialResult time breakdown [s]: planning and perception in compute wall time,
-  // execution in simulated time; total = their sum (the cycle time).
-  j["cycle"] = {{"perception_time", o.perception_time},   {"plan_pick_time", o.plan_pick_time},
-                {"execute_pick_time", o.execute_pick_time}, {"plan_place_time", o.plan_place_time},
-                {"execute_place_time", o.execute_place_time}, {"return_home_time", o.return_home_time},
-                {"total_time", o.total_time}};
-  j["sim_time"] = o.sim_time;
-  j["compute_time"] = o.compute_time;
-  j["place_position_error"] = o.place_position_error;
-  j["place_orientation_error"] = o.place_orientation_error;
-  j["collision_count"] = o.collision_count;
-  j["collision_log"] = o.collision_log;
-  j["max_tracking_error"] = o.max_tracking_error;
-  j["collision_checks"] = o.collision_checks;
-  j["recovery"] = {{"needed", o.recovery_needed}, {"success", o.recovery_success}, {"attempts", o.recovery_attempts}};
-  json picks = json::array();
-  for (const PickRecord& p : o.picks)
-    picks.push_back({{"object", p.object},
-                     {"at_target", p.at_target},
-                     {"placed", p.placed},
-                     {"position_error", p.position_error},
-                     {"orientation_error", p.orientation_error},
-                     {"target", {p.T_world_target.translation().x(), p.T_world_target.translation().y(), p.T_world_target.translation().z()}},
-                     {"grasp_candidates_tried", p.grasp_candidates_tried},
-                     {"grasp_opening", p.grasp_opening},
-                     {"reason", nullable(p.reason)}});
-  j["picks"] = picks;
-  j["objects_placed"] = std::count_if(o.picks.begin(), o.picks.end(), [](const PickRecord& p) { return p.placed; });
-  j["objects_left_in_bin"] = o.objects_left_in_bin;
-  j["reported_total"] = o.reported_total >= 0 ? json(o.reported_total) : json(nullptr);
-  json failures = json::array();
-  for (const RecordedFailure& f : o.failures)
-    failures.push_back({{"stage", f.failure.stage},
-                        {"kind", failureKindName(f.failure.kind)},
-                        {"reason", f.failure.reason},
-                        {"sim_time", f.sim_time},
-                        {"handled", f.handled}});
-  j["failures"] = failures;
-  j["bt_log"] = nullable(bt_log);
-  json stages = json::array();
-  for (const auto& s : o.stages)
-    stages.push_back({{"name", s.name}, {"ok", s.ok}, {"sim_seconds", s.sim_seconds}, {"compute_seconds", s.compute_seconds}});
-  j["stages"] = stages;
-  return j;
+TrialRecord makeRecord(const Experiment& e, uint64_t trial, const SpawnResult& spawn, TrialOutcome o, const std::string& bt_log) {
+  TrialRecord r;
+  r.trial = trial;
+  r.seed = e.seed;
+  r.hardware = e.hardware;
+  r.objects_in_bin = static_cast<int>(spawn.active.size());
+  r.spawn_attempts = spawn.attempts;
+  r.bt_log = bt_log;
+  r.o = std::move(o);
+  return r;
 }
 
 void writeAtomically(const fs::path& path, const std::string& text) {
@@ -133,122 +74,68 @@ std::string hostName() {
 }
 
 struct Summary {
-  json j;
-  std::string table;
+  std::string json, table;
 };
 
-Summary summarize(const Experiment& e, const std::vector<json>& trials, double wall_seconds, const CampaignOptions& co) {
-  const long n = static_cast<long>(trials.size());
-  long ok = 0, first_pass = 0, needed = 0, recovered = 0, unstable = 0, dropped = 0, collisions = 0, placed = 0,
-       left = 0, cleared = 0, timeouts = 0;
-  double all_time = 0;  // cycle time of every trial, failed ones included
-  std::vector<double> cycle, sim, place_mm, orient_deg, track;
-  std::map<std::string, std::vector<double>> breakdown;
-  std::map<std::string, long> failures;
-  const char* keys[] = {"perception_time", "plan_pick_time", "execute_pick_time", "plan_place_time",
-                        "execute_place_time", "return_home_time"};
-  for (const json& t : trials) {
-    const bool s = t["success"];
-    const bool rn = t["recovery"]["needed"];
-    collisions += t["collision_count"].get<long>();
-    placed += t["objects_placed"].get<long>();
-    all_time += t["cycle"]["total_time"].get<double>();
-    left += t["objects_left_in_bin"].get<long>();
-    cleared += t["objects_left_in_bin"].get<long>() == 0;
-    timeouts += t["tree_status"] == "TIMEOUT";
-    unstable += t["sim_unstable"].get<bool>();
-    dropped += t["dropped"].get<bool>();
-    track.push_back(t["max_tracking_error"]);
-    if (rn) ++needed, recovered += t["recovery"]["success"].get<bool>();
-    if (!s) {
-      failures[t["failure_stage"].is_null() ? "unknown" : t["failure_stage"].get<std::string>()]++;
-      continue;
-    }
-    ++ok;
-    if (!rn) ++first_pass;
-    cycle.push_back(t["cycle"]["total_time"]);
-    sim.push_back(t["sim_time"]);
-    place_mm.push_back(1000.0 * t["place_position_error"].get<double>());
-    orient_deg.push_back(180.0 / M_PI * t["place_orientation_error"].get<double>());
-    for (const char* k : keys) breakdown[k].push_back(t["cycle"][k]);
-  }
-  const auto [fl, fh] = wilson95(first_pass, n);
-  const auto [ol, oh] = wilson95(ok, n);
-  const Moments c = moments(cycle), s = moments(sim), pm = moments(place_mm), od = moments(orient_deg), tr = moments(track);
-  json j;
-  j["schema"] = kSchema;
-  j["experiment"] = e.name;
-  j["experiment_file"] = e.file;
-  j["command"] = co.command_line;
-  j["seed"] = e.seed;
-  j["hardware"] = e.hardware;
-  j["trials"] = n;
-  j["successes"] = ok;
-  j["first_pass_yield"] = {{"value", n ? double(first_pass) / n : 0.0}, {"ci95", {fl, fh}}};
-  j["overall_yield"] = {{"value", n ? double(ok) / n : 0.0}, {"ci95", {ol, oh}}};
-  j["recovery_rate"] = needed ? json(double(recovered) / needed) : json(nullptr);
-  j["recoveries_needed"] = needed;
-  j["cycle_time"] = {{"mean", c.mean}, {"std", c.std}, {"max", c.max}, {"n", c.n}};
-  j["sim_time"] = {{"mean", s.mean}, {"std", s.std}, {"max", s.max}};
-  // Objects placed per hour of cell time, every trial's time counted (failed ones too).
-  const double per_hour = all_time > 0 ? 3600.0 * placed / all_time : 0.0;
-  j["throughput_per_hour"] = per_hour;
-  j["time_per_pick"] = placed > 0 ? json(all_time / placed) : json(nullptr);
-  json bd;
-  for (const char* k : keys) bd[k] = moments(breakdown[k]).mean;
-  j["mean_time_breakdown"] = bd;
-  j["place_position_error_mm"] = {{"mean", pm.mean}, {"max", pm.max}};
-  j["place_orientation_error_deg"] = {{"mean", od.mean}, {"max", od.max}};
-  j["collision_events"] = collisions;
-  j["collisions_per_100_trials"] = n ? 100.0 * collisions / n : 0.0;
-  j["max_tracking_error_rad"] = tr.max;
-  j["sim_unstable"] = unstable;
-  j["dropped"] = dropped;
-  j["failure_stages"] = failures;
-  j["tree"] = e.tree_path;
-  j["objects_placed"] = placed;
-  j["objects_left_in_bin"] = left;
-  j["bins_cleared"] = cleared;
-  j["timeouts"] = timeouts;
-  j["wall_seconds"] = wall_seconds;
-  j["trials_per_second"] = wall_seconds > 0 ? n / wall_seconds : 0.0;
-  j["environment"] = {{"minimanip", MINIMANIP_VERSION},
-                      {"mujoco", mujocoVersion()},
-                      {"ompl", omplVersion()},
-                      {"compiler", std::string("gcc ") + __VERSION__},
-                      {"cpu", cpuModel()},
-                      {"cores", std::thread::hardware_concurrency()},
-                      {"host", hostName()},
-                      {"jobs", e.jobs}};
+Summary summarize(const Experiment& e, const std::vector<TrialRecord>& trials, double wall_seconds, const CampaignOptions& co) {
+  CampaignSummary s = summarizeTrials(trials);
+  s.experiment = e.name;
+  s.experiment_file = e.file;
+  s.command = co.command_line;
+  s.seed = e.seed;
+  s.hardware = e.hardware;
+  s.tree = e.tree_path;
+  s.wall_seconds = wall_seconds;
+  s.trials_per_second = wall_seconds > 0 ? s.trials / wall_seconds : 0.0;
+  s.minimanip = MINIMANIP_VERSION;
+  s.mujoco = mujocoVersion();
+  s.ompl = omplVersion();
+  s.compiler = std::string("gcc ") + __VERSION__;
+  s.cpu = cpuModel();
+  s.cores = std::thread::hardware_concurrency();
+  s.host = hostName();
+  s.jobs = e.jobs;
 
+  const long n = s.trials;
   std::ostringstream t;
   t << std::fixed;
   const std::string rule(64, '=');
   t << rule << "\n  Bin-Picking Performance Report: " << e.name << " (" << e.hardware << ", seed " << e.seed << ")\n" << rule << "\n";
   t << std::setprecision(1);
   t << "  Trials:            " << n << "\n";
-  t << "  First-pass Yield:  " << 100.0 * first_pass / std::max(n, 1L) << "%  [95% CI " << 100 * fl << ", " << 100 * fh << "]\n";
-  t << "  Overall Yield:     " << 100.0 * ok / std::max(n, 1L) << "%  [95% CI " << 100 * ol << ", " << 100 * oh << "]\n";
-  t << "  Recovery Rate:     " << (needed ? std::to_string(100.0 * recovered / needed) + "%" : std::string("n/a (no recovery needed)")) << "\n";
+  t << "  First-pass Yield:  " << 100.0 * s.first_pass_yield << "%  [95% CI " << 100 * s.first_pass_ci95[0] << ", "
+    << 100 * s.first_pass_ci95[1] << "]\n";
+  t << "  Overall Yield:     " << 100.0 * s.overall_yield << "%  [95% CI " << 100 * s.overall_ci95[0] << ", " << 100 * s.overall_ci95[1]
+    << "]\n";
+  t << "  Recovery Rate:     "
+    << (s.recoveries_needed ? std::to_string(100.0 * s.recovery_rate) + "% (" + std::to_string(s.recovered) + " of " +
+                                  std::to_string(s.recoveries_needed) + ")"
+                            : std::string("n/a (no recovery needed)"))
+    << "\n";
   t << std::string(64, '-') << "\n" << std::setprecision(2);
-  t << "  Mean Cycle Time:   " << c.mean << " +/- " << c.std << " s   (max " << c.max << " s)\n";
-  t << "  Throughput:        " << std::setprecision(0) << per_hour << " picks/h (objects placed per hour, all trials' time)\n";
+  t << "  Mean Cycle Time:   " << s.cycle_mean << " +/- " << s.cycle_std << " s   (max " << s.cycle_max << " s)\n";
+  t << "  Throughput:        " << std::setprecision(0) << s.throughput_per_hour << " picks/h (objects placed per hour, all trials' time)\n";
   t << std::string(64, '-') << "\n  Time Breakdown (mean over successes):\n";
-  const char* labels[] = {"Perception  ", "Plan Pick   ", "Exec Pick   ", "Plan Place  ", "Exec Place  ", "Return Home "};
-  for (int i = 0; i < 6; ++i)
-    t << "    " << labels[i] << std::setw(9) << std::setprecision(1) << 1000 * bd[keys[i]].get<double>() << " ms"
-      << (i == 0 || i == 1 || i == 3 ? "  (compute)" : (i == 5 ? "  (plan + sim)" : "  (sim)")) << "\n";
+  const std::pair<const char*, const char*> rows[] = {
+      {"perception_time", "Perception    (compute)"}, {"plan_pick_time", "Plan Pick     (compute)"},
+      {"execute_pick_time", "Exec Pick     (sim)"},   {"plan_place_time", "Plan Place    (compute)"},
+      {"execute_place_time", "Exec Place    (sim)"},   {"return_home_time", "Return Home   (plan + sim)"}};
+  for (const auto& [key, label] : rows)
+    t << "    " << std::left << std::setw(28) << label << std::right << std::setw(9) << std::setprecision(1)
+      << 1000 * s.breakdown[key] << " ms\n";
   t << std::string(64, '-') << "\n" << std::setprecision(2);
-  t << "  Place Error:       " << pm.mean << " mm (mean), " << pm.max << " mm (max); " << od.mean << " deg (mean)\n";
-  t << "  Collisions:        " << collisions << " events in " << n << " trials\n";
-  t << "  Objects placed:    " << placed << " (" << left << " left in bins; " << cleared << " of " << n << " bins empty)\n";
-  t << "  Max Tracking Err:  " << std::setprecision(4) << tr.max << " rad\n";
-  if (!failures.empty()) {
+  t << "  Place Error:       " << s.place_mm_mean << " mm (mean), " << s.place_mm_max << " mm (max); " << s.orient_deg_mean
+    << " deg (mean)\n";
+  t << "  Collisions:        " << s.collision_events << " events in " << n << " trials\n";
+  t << "  Objects placed:    " << s.objects_placed << " (" << s.objects_left_in_bin << " left in bins; " << s.bins_cleared << " of "
+    << n << " bins empty)\n";
+  t << "  Max Tracking Err:  " << std::setprecision(4) << s.max_tracking_error << " rad\n";
+  if (!s.failure_stages.empty()) {
     t << std::string(64, '-') << "\n  Failure Analysis:\n";
-    for (const auto& [stage, count] : failures) t << "    " << stage << ": " << count << "\n";
+    for (const auto& [stage, count] : s.failure_stages) t << "    " << stage << ": " << count << "\n";
   }
   t << rule << "\n";
-  return {j, t.str()};
+  return {toJson(s), t.str()};
 }
 
 class Progress {
@@ -302,7 +189,7 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
   std::ofstream jsonl(out / "trials.jsonl", std::ios::app);
 
   const auto t0 = std::chrono::steady_clock::now();
-  std::vector<json> results(e.trials);
+  std::vector<TrialRecord> results(e.trials);
   std::atomic<long> next{0};
   std::mutex mu;
   long done = 0, ok = 0;
@@ -325,14 +212,15 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
                                          : makeMujocoHardware(world, robot, spawn.active);
           o = runner.run(*hw, trial, bt_log);
         }
-        json j = trialJson(e, trial, spawn, o, bt_log.empty() ? "" : fs::relative(bt_log, out).string());
+        TrialRecord record = makeRecord(e, trial, spawn, std::move(o), bt_log.empty() ? "" : fs::relative(bt_log, out).string());
+        const std::string line = toJsonLine(record);
         std::lock_guard<std::mutex> lock(mu);
-        jsonl << j.dump() << "\n";
+        jsonl << line << "\n";
         jsonl.flush();
-        results[i] = std::move(j);
         ++done;
-        ok += o.success;
-        progress.update(done, ok, trial, o);
+        ok += record.o.success;
+        progress.update(done, ok, trial, record.o);
+        results[i] = std::move(record);
       }
     } catch (...) {
       std::lock_guard<std::mutex> lock(mu);
@@ -347,7 +235,7 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
   if (error) std::rethrow_exception(error);
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const Summary s = summarize(e, results, wall, co);
-  writeAtomically(out / "summary.json", s.j.dump(2) + "\n");
+  writeAtomically(out / "summary.json", s.json + "\n");
   return s.table;
 }
 

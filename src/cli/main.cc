@@ -13,6 +13,7 @@
 #include "campaign/experiment.h"
 #include "campaign/ik_bench.h"
 #include "campaign/plan_bench.h"
+#include "campaign/record.h"
 #include "campaign/trial.h"
 #include "core/config.h"
 #include "core/error.h"
@@ -106,11 +107,12 @@ int main(int argc, char** argv) {
 
   CLI::App* config_doc = app.add_subcommand("config-doc", "print every experiment key as a Markdown table");
   CLI::App* nodes_doc = app.add_subcommand("nodes-doc", "print the behavior-tree node library as a Markdown table");
+  CLI::App* results_doc = app.add_subcommand("results-doc", "print the fields of trials.jsonl and summary.json as Markdown");
 
   try {
-    const std::vector<std::string> commands = {"run", "bench", "ik-bench", "plan-bench", "config-doc", "nodes-doc"};
+    const std::vector<std::string> commands = {"run", "bench", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc"};
     if (argc > 1 && argv[1][0] != '-' && std::find(commands.begin(), commands.end(), argv[1]) == commands.end())
-      throw mm::InputError(argv[1], "unknown command (expected run, bench, ik-bench, plan-bench, config-doc or nodes-doc; --help)");
+      throw mm::InputError(argv[1], "unknown command (expected run, bench, ik-bench, plan-bench, config-doc, nodes-doc or results-doc; --help)");
     try {
       app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -153,6 +155,10 @@ int main(int argc, char** argv) {
     }
     if (nodes_doc->parsed()) {
       std::cout << mm::nodeLibraryMarkdown();
+      return 0;
+    }
+    if (results_doc->parsed()) {
+      std::cout << mm::recordsMarkdown();
       return 0;
     }
     return 2;

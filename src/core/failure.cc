@@ -23,4 +23,10 @@ const char* failureKindName(FailureKind kind) {
   return "unknown";
 }
 
+FailureKind failureKindFromName(const std::string& name) {
+  for (int k = 0; k <= static_cast<int>(FailureKind::kPrecondition); ++k)
+    if (name == failureKindName(static_cast<FailureKind>(k))) return static_cast<FailureKind>(k);
+  return FailureKind::kNone;
+}
+
 }  // namespace mm

@@ -25,6 +25,8 @@ enum class FailureKind {
 
 /// Stable snake_case name (written into trials.jsonl).
 const char* failureKindName(FailureKind kind);
+/// The kind of a name failureKindName gives; kNone for an unknown name.
+FailureKind failureKindFromName(const std::string& name);
 
 struct Failure {
   std::string stage;  ///< the stage that failed, e.g. "approach"

@@ -1,0 +1,389 @@
+#include "campaign/record.h"
+
+#include <algorithm>
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "campaign/stats.h"
+#include "core/error.h"
+
+namespace mm {
+
+using json = nlohmann::json;
+
+// ---- the descriptions ------------------------------------------------------------------------
+
+void TrialRecord::describe(RecordArchive& a) {
+  a.field("schema", schema, "", "record format version");
+  a.field("trial", trial, "", "trial index (its random streams derive from (seed, trial, purpose))");
+  a.field("seed", seed, "", "campaign seed");
+  a.field("hardware", hardware, "", "mujoco or mock");
+  a.field("success", o.success, "", "the tree succeeded, every object let go of rests at its target, nothing is left in the hand");
+  a.field("failure_stage", o.failure_stage, "", "the stage that failed (null on success)");
+  a.field("failure_reason", o.failure_reason, "", "why, in words");
+  std::string kind = o.success ? "" : failureKindName(o.failure_kind);
+  a.field("failure_kind", kind, "",
+          "perception, no_grasp, ik, collision, planning, time_parameterization, grasp_missed, dropped, sim_unstable, "
+          "placement, halted, timeout, tree or precondition (null on success)");
+  o.failure_kind = failureKindFromName(kind);
+  a.field("tree", o.tree, "", "the behavior tree's ID");
+  a.field("tree_status", o.tree_status, "", "SUCCESS, FAILURE, TIMEOUT (simulated-time budget) or ERROR (a script or port)");
+  a.field("ticks", o.ticks, "", "root ticks, re-ticks after a wake-up included");
+  a.field("sim_unstable", o.sim_unstable, "", "MuJoCo flagged a bad state");
+  a.field("dropped", o.dropped, "", "a held object left the hand");
+  a.field("objects_in_bin", objects_in_bin, "", "objects spawned in the bin");
+  a.field("spawn_attempts", spawn_attempts, "", "spawns drawn until one settled cleanly");
+  a.field("target_object", o.target_object, "", "the first object picked (scene pool index)");
+  a.field("grasp_candidates_tried", o.grasp_candidates_tried, "", "grasp candidates filtered, all picks");
+  a.field("grasp_opening", o.grasp_opening, "m", "per finger after the last close");
+  a.object("cycle", [&](RecordArchive& c) {
+    c.field("perception_time", o.perception_time, "s", "compute wall time of perception");
+    c.field("plan_pick_time", o.plan_pick_time, "s", "compute wall time of pick planning");
+    c.field("execute_pick_time", o.execute_pick_time, "s", "simulated time of pick motions");
+    c.field("plan_place_time", o.plan_place_time, "s", "compute wall time of place planning");
+    c.field("execute_place_time", o.execute_place_time, "s", "simulated time of place motions");
+    c.field("return_home_time", o.return_home_time, "s", "planning (wall) and motion (simulated) home");
+    c.field("total_time", o.total_time, "s", "their sum: the cycle time, as the source's TrialResult");
+  }, "the source's time breakdown");
+  a.field("sim_time", o.sim_time, "s", "simulated time of the trial, evaluation rest included");
+  a.field("compute_time", o.compute_time, "s", "wall time of the blocking computation");
+  a.field("place_position_error", o.place_position_error, "m", "horizontal, the worst placed object");
+  a.field("place_orientation_error", o.place_orientation_error, "rad", "about the object's symmetry, the worst placed object");
+  a.field("collision_count", o.collision_count, "", "episodes of robot contact with the table, bins or tray");
+  a.field("collision_log", o.collision_log, "", "which geom hit what, when");
+  a.field("max_tracking_error", o.max_tracking_error, "rad", "max over samples and joints of |commanded - measured|");
+  a.field("collision_checks", o.collision_checks, "", "planning collision checks");
+  a.object("recovery", [&](RecordArchive& r) {
+    r.field("needed", o.recovery_needed, "", "a failure the tree went on after");
+    r.field("success", o.recovery_success, "", "and the trial succeeded");
+    r.field("attempts", o.recovery_attempts, "", "failures the tree went on after");
+  }, "recovery (a halt is never one)");
+  size_t n_picks = o.picks.size();
+  a.list("picks", n_picks, [&](size_t i, RecordArchive& p) {
+    if (p.reading() && o.picks.size() <= i) o.picks.resize(i + 1);
+    PickRecord& k = o.picks[i];
+    p.field("object", k.object, "", "scene pool index");
+    p.field("at_target", k.at_target, "", "let go of over its target by a place");
+    p.field("placed", k.placed, "", "evaluated within the tolerances");
+    p.field("position_error", k.position_error, "m", "horizontal");
+    p.field("orientation_error", k.orientation_error, "rad", "about its symmetry");
+    std::vector<double> target{k.T_world_target.translation().x(), k.T_world_target.translation().y(),
+                               k.T_world_target.translation().z()};
+    p.field("target", target, "m", "where it should rest (world x, y, z)");
+    if (target.size() == 3) k.T_world_target.translation() = Vec3(target[0], target[1], target[2]);
+    p.field("grasp_candidates_tried", k.grasp_candidates_tried, "", "for this object");
+    p.field("grasp_opening", k.grasp_opening, "m", "per finger when it was grasped");
+    p.field("reason", k.reason, "", "why it is not placed");
+  }, "every object let go of, in order");
+  long placed = std::count_if(o.picks.begin(), o.picks.end(), [](const PickRecord& p) { return p.placed; });
+  a.field("objects_placed", placed, "", "picks placed within the tolerances");
+  a.field("objects_left_in_bin", o.objects_left_in_bin, "", "at the end, as the bin's sensor sees it");
+  a.field("reported_total", o.reported_total, "", "ReportCompletion's total (-1: never reported)");
+  size_t n_failures = o.failures.size();
+  a.list("failures", n_failures, [&](size_t i, RecordArchive& f) {
+    if (f.reading() && o.failures.size() <= i) o.failures.resize(i + 1);
+    RecordedFailure& r = o.failures[i];
+    f.field("stage", r.failure.stage, "", "");
+    std::string k = failureKindName(r.failure.kind);
+    f.field("kind", k, "", "");
+    r.failure.kind = failureKindFromName(k);
+    f.field("reason", r.failure.reason, "", "");
+    f.field("sim_time", r.sim_time, "s", "since the trial started");
+    f.field("handled", r.handled, "", "the tree started another action after it");
+  }, "every failure an action recorded");
+  a.field("bt_log", bt_log, "", "the trial's .db3, relative to the results folder (null unless kept)");
+  size_t n_stages = o.stages.size();
+  a.list("stages", n_stages, [&](size_t i, RecordArchive& s) {
+    if (s.reading() && o.stages.size() <= i) o.stages.resize(i + 1);
+    StageRecord& st = o.stages[i];
+    s.field("name", st.name, "", "");
+    s.field("ok", st.ok, "", "");
+    s.field("sim_seconds", st.sim_seconds, "s", "simulated");
+    s.field("compute_seconds", st.compute_seconds, "s", "wall");
+  }, "each stage in order");
+}
+
+void CampaignSummary::describe(RecordArchive& a) {
+  a.field("schema", schema, "", "record format version");
+  a.field("experiment", experiment, "", "its name");
+  a.field("experiment_file", experiment_file, "", "");
+  a.field("command", command, "", "the command line");
+  a.field("seed", seed, "", "");
+  a.field("hardware", hardware, "", "");
+  a.field("tree", tree, "", "the behavior tree file");
+  a.field("trials", trials, "", "");
+  a.field("successes", successes, "", "");
+  a.object("first_pass_yield", [&](RecordArchive& y) {
+    y.field("value", first_pass_yield, "", "successes without recovery / trials");
+    y.field("ci95", first_pass_ci95, "", "Wilson 95% interval");
+  }, "");
+  a.object("overall_yield", [&](RecordArchive& y) {
+    y.field("value", overall_yield, "", "successes / trials");
+    y.field("ci95", overall_ci95, "", "Wilson 95% interval");
+  }, "");
+  a.field("recovery_rate", recovery_rate, "", "recovered / needed (-1 when no recovery was needed)");
+  a.field("recoveries_needed", recoveries_needed, "", "");
+  a.object("cycle_time", [&](RecordArchive& c) {
+    c.field("mean", cycle_mean, "s", "over successes");
+    c.field("std", cycle_std, "s", "");
+    c.field("max", cycle_max, "s", "");
+  }, "");
+  a.object("sim_time", [&](RecordArchive& c) {
+    c.field("mean", sim_mean, "s", "over successes");
+    c.field("std", sim_std, "s", "");
+    c.field("max", sim_max, "s", "");
+  }, "");
+  a.field("throughput_per_hour", throughput_per_hour, "1/h", "objects placed per hour of every trial's cycle time, failed ones included");
+  a.field("time_per_pick", time_per_pick, "s", "every trial's cycle time / objects placed");
+  a.object("mean_time_breakdown", [&](RecordArchive& b) {
+    for (const char* k : {"perception_time", "plan_pick_time", "execute_pick_time", "plan_place_time", "execute_place_time",
+                          "return_home_time"})
+      b.field(k, breakdown[k], "s", "mean over successes");
+  }, "the cycle's parts");
+  a.object("place_position_error_mm", [&](RecordArchive& c) {
+    c.field("mean", place_mm_mean, "mm", "over successes");
+    c.field("max", place_mm_max, "mm", "");
+  }, "");
+  a.object("place_orientation_error_deg", [&](RecordArchive& c) {
+    c.field("mean", orient_deg_mean, "deg", "over successes");
+    c.field("max", orient_deg_max, "deg", "");
+  }, "");
+  a.field("collision_events", collision_events, "", "");
+  a.field("collisions_per_100_trials", collisions_per_100, "", "");
+  a.field("max_tracking_error_rad", max_tracking_error, "rad", "");
+  a.field("sim_unstable", sim_unstable, "", "trials");
+  a.field("dropped", dropped, "", "trials");
+  a.field("failure_stages", failure_stages, "", "failed trials by stage");
+  a.field("objects_placed", objects_placed, "", "");
+  a.field("objects_left_in_bin", objects_left_in_bin, "", "");
+  a.field("bins_cleared", bins_cleared, "", "trials that ended with the bin empty");
+  a.field("timeouts", timeouts, "", "trials past the simulated-time budget");
+  a.field("wall_seconds", wall_seconds, "s", "the campaign's wall time");
+  a.field("trials_per_second", trials_per_second, "1/s", "");
+  a.object("environment", [&](RecordArchive& e) {
+    e.field("minimanip", minimanip, "", "");
+    e.field("mujoco", mujoco, "", "");
+    e.field("ompl", ompl, "", "");
+    e.field("compiler", compiler, "", "");
+    e.field("cpu", cpu, "", "");
+    e.field("cores", cores, "", "");
+    e.field("host", host, "", "");
+    e.field("jobs", jobs, "", "workers");
+  }, "the machine and versions");
+}
+
+// ---- writer, reader, documenter ---------------------------------------------------------------
+
+namespace {
+
+class Writer final : public RecordArchive {
+ public:
+  explicit Writer(json& j) : j_(j) {}
+  void field(const char* k, bool& v, const char*, const char*) override { j_[k] = v; }
+  void field(const char* k, int& v, const char*, const char*) override { j_[k] = v; }
+  void field(const char* k, long& v, const char*, const char*) override { j_[k] = v; }
+  void field(const char* k, unsigned long& v, const char*, const char*) override { j_[k] = v; }
+  void field(const char* k, double& v, const char*, const char*) override { j_[k] = v; }
+  void field(const char* k, std::string& v, const char*, const char*) override { j_[k] = v.empty() ? json(nullptr) : json(v); }
+  void field(const char* k, std::vector<std::string>& v, const char*, const char*) override { j_[k] = v; }
+  void field(const char* k, std::vector<double>& v, const char*, const char*) override { j_[k] = v; }
+  void field(const char* k, std::map<std::string, long>& v, const char*, const char*) override { j_[k] = v; }
+  void object(const char* k, const std::function<void(RecordArchive&)>& body, const char*) override {
+    json sub = json::object();
+    Writer w(sub);
+    body(w);
+    j_[k] = sub;
+  }
+  void list(const char* k, size_t& n, const std::function<void(size_t, RecordArchive&)>& item, const char*) override {
+    json arr = json::array();
+    for (size_t i = 0; i < n; ++i) {
+      json sub = json::object();
+      Writer w(sub);
+      item(i, w);
+      arr.push_back(sub);
+    }
+    j_[k] = arr;
+  }
+
+ private:
+  json& j_;
+};
+
+class Reader final : public RecordArchive {
+ public:
+  explicit Reader(const json& j) : j_(j) {}
+  bool reading() const override { return true; }
+  void field(const char* k, bool& v, const char*, const char*) override { read(k, v); }
+  void field(const char* k, int& v, const char*, const char*) override { read(k, v); }
+  void field(const char* k, long& v, const char*, const char*) override { read(k, v); }
+  void field(const char* k, unsigned long& v, const char*, const char*) override { read(k, v); }
+  void field(const char* k, double& v, const char*, const char*) override { read(k, v); }
+  void field(const char* k, std::string& v, const char*, const char*) override {
+    if (j_.contains(k) && j_[k].is_null()) v.clear();
+    else read(k, v);
+  }
+  void field(const char* k, std::vector<std::string>& v, const char*, const char*) override { read(k, v); }
+  void field(const char* k, std::vector<double>& v, const char*, const char*) override { read(k, v); }
+  void field(const char* k, std::map<std::string, long>& v, const char*, const char*) override { read(k, v); }
+  void object(const char* k, const std::function<void(RecordArchive&)>& body, const char*) override {
+    if (!j_.contains(k) || !j_[k].is_object()) throw std::runtime_error(std::string("'") + k + "' is not an object");
+    Reader r(j_[k]);
+    body(r);
+  }
+  void list(const char* k, size_t& n, const std::function<void(size_t, RecordArchive&)>& item, const char*) override {
+    if (!j_.contains(k) || !j_[k].is_array()) throw std::runtime_error(std::string("'") + k + "' is not a list");
+    n = j_[k].size();
+    for (size_t i = 0; i < n; ++i) {
+      Reader r(j_[k][i]);
+      item(i, r);
+    }
+  }
+
+ private:
+  template <class T>
+  void read(const char* k, T& v) {
+    if (!j_.contains(k)) throw std::runtime_error(std::string("missing field '") + k + "'");
+    v = j_[k].get<T>();
+  }
+  const json& j_;
+};
+
+class Documenter final : public RecordArchive {
+ public:
+  std::ostringstream out;
+  int depth = 0;
+  void field(const char* k, bool&, const char* u, const char* h) override { line(k, "bool", u, h); }
+  void field(const char* k, int&, const char* u, const char* h) override { line(k, "integer", u, h); }
+  void field(const char* k, long&, const char* u, const char* h) override { line(k, "integer", u, h); }
+  void field(const char* k, unsigned long&, const char* u, const char* h) override { line(k, "integer", u, h); }
+  void field(const char* k, double&, const char* u, const char* h) override { line(k, "number", u, h); }
+  void field(const char* k, std::string&, const char* u, const char* h) override { line(k, "text or null", u, h); }
+  void field(const char* k, std::vector<std::string>&, const char* u, const char* h) override { line(k, "list of text", u, h); }
+  void field(const char* k, std::vector<double>&, const char* u, const char* h) override { line(k, "list of numbers", u, h); }
+  void field(const char* k, std::map<std::string, long>&, const char* u, const char* h) override { line(k, "map", u, h); }
+  void object(const char* k, const std::function<void(RecordArchive&)>& body, const char* h) override {
+    line(k, "object", "", h);
+    ++depth;
+    body(*this);
+    --depth;
+  }
+  void list(const char* k, size_t&, const std::function<void(size_t, RecordArchive&)>& item, const char* h) override {
+    line(k, "list of objects", "", h);
+    ++depth;
+    item(0, *this);
+    --depth;
+  }
+
+ private:
+  void line(const char* k, const char* type, const char* unit, const char* help) {
+    out << std::string(2 * depth, ' ') << "- `" << k << "` (" << type << (*unit ? std::string(", ") + unit : "") << ")"
+        << (*help ? std::string(": ") + help : "") << "\n";
+  }
+};
+
+}  // namespace
+
+std::string toJsonLine(TrialRecord& r) {
+  json j = json::object();
+  Writer w(j);
+  r.describe(w);
+  return j.dump();
+}
+
+TrialRecord fromJsonLine(const std::string& line, const std::string& where) {
+  TrialRecord r;
+  try {
+    const json j = json::parse(line);
+    Reader reader(j);
+    r.describe(reader);
+  } catch (const std::exception& e) {
+    throw InputError(where, std::string("not a trial record: ") + e.what());
+  }
+  if (r.schema != kTrialSchema)
+    throw InputError(where, "trial record schema " + std::to_string(r.schema) + ", this build reads " + std::to_string(kTrialSchema));
+  return r;
+}
+
+std::string toJson(CampaignSummary& s) {
+  json j = json::object();
+  Writer w(j);
+  s.describe(w);
+  return j.dump(2);
+}
+
+std::string recordsMarkdown() {
+  Documenter t;
+  TrialRecord r;
+  r.o.picks.resize(1);
+  r.o.failures.resize(1);
+  r.o.stages.resize(1);
+  r.describe(t);
+  Documenter s;
+  CampaignSummary c;
+  c.describe(s);
+  return "`trials.jsonl`, one object per trial:\n\n" + t.out.str() + "\n`summary.json`:\n\n" + s.out.str();
+}
+
+// ---- the statistics --------------------------------------------------------------------------
+
+CampaignSummary summarizeTrials(const std::vector<TrialRecord>& trials) {
+  CampaignSummary s;
+  s.trials = static_cast<long>(trials.size());
+  double all_time = 0;
+  std::vector<double> cycle, sim, place_mm, orient_deg, track;
+  std::map<std::string, std::vector<double>> parts;
+  for (const TrialRecord& r : trials) {
+    const TrialOutcome& o = r.o;
+    s.collision_events += o.collision_count;
+    const long placed = std::count_if(o.picks.begin(), o.picks.end(), [](const PickRecord& p) { return p.placed; });
+    s.objects_placed += placed;
+    all_time += o.total_time;
+    s.objects_left_in_bin += o.objects_left_in_bin;
+    s.bins_cleared += o.objects_left_in_bin == 0;
+    s.timeouts += o.tree_status == "TIMEOUT";
+    s.sim_unstable += o.sim_unstable;
+    s.dropped += o.dropped;
+    track.push_back(o.max_tracking_error);
+    if (o.recovery_needed) ++s.recoveries_needed, s.recovered += o.recovery_success;
+    if (!o.success) {
+      s.failure_stages[o.failure_stage.empty() ? "unknown" : o.failure_stage]++;
+      continue;
+    }
+    ++s.successes;
+    if (!o.recovery_needed) ++s.first_pass;
+    cycle.push_back(o.total_time);
+    sim.push_back(o.sim_time);
+    place_mm.push_back(1000.0 * o.place_position_error);
+    orient_deg.push_back(180.0 / M_PI * o.place_orientation_error);
+    parts["perception_time"].push_back(o.perception_time);
+    parts["plan_pick_time"].push_back(o.plan_pick_time);
+    parts["execute_pick_time"].push_back(o.execute_pick_time);
+    parts["plan_place_time"].push_back(o.plan_place_time);
+    parts["execute_place_time"].push_back(o.execute_place_time);
+    parts["return_home_time"].push_back(o.return_home_time);
+  }
+  const long n = s.trials;
+  const auto [fl, fh] = wilson95(s.first_pass, n);
+  const auto [ol, oh] = wilson95(s.successes, n);
+  s.first_pass_yield = n ? double(s.first_pass) / n : 0.0;
+  s.overall_yield = n ? double(s.successes) / n : 0.0;
+  s.first_pass_ci95 = {fl, fh};
+  s.overall_ci95 = {ol, oh};
+  s.recovery_rate = s.recoveries_needed ? double(s.recovered) / s.recoveries_needed : -1;
+  const Moments c = moments(cycle), m = moments(sim), pm = moments(place_mm), od = moments(orient_deg), tr = moments(track);
+  s.cycle_mean = c.mean, s.cycle_std = c.std, s.cycle_max = c.max;
+  s.sim_mean = m.mean, s.sim_std = m.std, s.sim_max = m.max;
+  s.throughput_per_hour = all_time > 0 ? 3600.0 * s.objects_placed / all_time : 0.0;
+  s.time_per_pick = s.objects_placed > 0 ? all_time / s.objects_placed : 0.0;
+  for (const char* k : {"perception_time", "plan_pick_time", "execute_pick_time", "plan_place_time", "execute_place_time",
+                        "return_home_time"})
+    s.breakdown[k] = moments(parts[k]).mean;
+  s.place_mm_mean = pm.mean, s.place_mm_max = pm.max;
+  s.orient_deg_mean = od.mean, s.orient_deg_max = od.max;
+  s.collisions_per_100 = n ? 100.0 * s.collision_events / n : 0.0;
+  s.max_tracking_error = tr.max;
+  return s;
+}
+
+}  // namespace mm

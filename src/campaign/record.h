@@ -1,0 +1,88 @@
+// Result records described once: a trial's line in trials.jsonl (TrialRecord) and a campaign's
+// summary.json (CampaignSummary) each list their fields in one describe() — key, field, unit,
+// meaning — from which come the JSON writer, the reader (trials.jsonl is read back to summarize,
+// and later to resume and merge) and the field reference in the README (`minimanip results-doc`).
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "task/trial_outcome.h"
+
+namespace mm {
+
+/// Visits the fields of a record (writer, reader, documenter).
+class RecordArchive {
+ public:
+  virtual ~RecordArchive() = default;
+  virtual void field(const char* key, bool& v, const char* unit, const char* help) = 0;
+  virtual void field(const char* key, int& v, const char* unit, const char* help) = 0;
+  virtual void field(const char* key, long& v, const char* unit, const char* help) = 0;
+  virtual void field(const char* key, unsigned long& v, const char* unit, const char* help) = 0;
+  virtual void field(const char* key, double& v, const char* unit, const char* help) = 0;
+  /// Text; empty is written as null.
+  virtual void field(const char* key, std::string& v, const char* unit, const char* help) = 0;
+  virtual void field(const char* key, std::vector<std::string>& v, const char* unit, const char* help) = 0;
+  virtual void field(const char* key, std::vector<double>& v, const char* unit, const char* help) = 0;
+  virtual void field(const char* key, std::map<std::string, long>& v, const char* unit, const char* help) = 0;
+  /// A nested object.
+  virtual void object(const char* key, const std::function<void(RecordArchive&)>& body, const char* help) = 0;
+  /// A list of `n` objects (the reader sets n; item(i, a) describes element i).
+  virtual void list(const char* key, size_t& n, const std::function<void(size_t, RecordArchive&)>& item, const char* help) = 0;
+  /// True while reading (fields derived on writing are recomputed instead).
+  virtual bool reading() const { return false; }
+};
+
+constexpr int kTrialSchema = 2;
+
+/// One trial as trials.jsonl holds it.
+struct TrialRecord {
+  int schema = kTrialSchema;
+  unsigned long trial = 0, seed = 0;
+  std::string hardware;
+  int objects_in_bin = 0;  ///< spawned
+  int spawn_attempts = 0;
+  std::string bt_log;      ///< the .db3 relative to the results folder, if kept
+  TrialOutcome o;
+  void describe(RecordArchive& a);
+};
+
+/// One JSON line (no newline).
+std::string toJsonLine(TrialRecord& r);
+/// Parses a line of trials.jsonl; throws InputError naming `where` when it is not a trial record.
+TrialRecord fromJsonLine(const std::string& line, const std::string& where);
+
+/// A campaign's summary.json: yields with Wilson intervals, times, accuracy, counts, environment.
+struct CampaignSummary {
+  int schema = kTrialSchema;
+  std::string experiment, experiment_file, command, hardware, tree;
+  unsigned long seed = 0;
+  long trials = 0, successes = 0, first_pass = 0, recoveries_needed = 0, recovered = 0;
+  double first_pass_yield = 0, overall_yield = 0;
+  std::vector<double> first_pass_ci95, overall_ci95;
+  double recovery_rate = -1;  ///< -1: no recovery was needed
+  double cycle_mean = 0, cycle_std = 0, cycle_max = 0;
+  double sim_mean = 0, sim_std = 0, sim_max = 0;
+  double throughput_per_hour = 0, time_per_pick = 0;
+  std::map<std::string, double> breakdown;  ///< mean over successes [s]
+  double place_mm_mean = 0, place_mm_max = 0, orient_deg_mean = 0, orient_deg_max = 0;
+  long collision_events = 0;
+  double collisions_per_100 = 0, max_tracking_error = 0;
+  long sim_unstable = 0, dropped = 0, objects_placed = 0, objects_left_in_bin = 0, bins_cleared = 0, timeouts = 0;
+  std::map<std::string, long> failure_stages;
+  double wall_seconds = 0, trials_per_second = 0;
+  std::string minimanip, mujoco, ompl, compiler, cpu, host;
+  long cores = 0, jobs = 0;
+  void describe(RecordArchive& a);
+};
+
+/// The statistics of `trials` (counts, yields with Wilson 95% intervals, means).
+CampaignSummary summarizeTrials(const std::vector<TrialRecord>& trials);
+std::string toJson(CampaignSummary& s);  ///< pretty-printed
+
+/// The fields of trials.jsonl and summary.json as Markdown lists (for the README).
+std::string recordsMarkdown();
+
+}  // namespace mm
