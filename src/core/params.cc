@@ -136,12 +136,14 @@ std::string validate(const ParamDecl& d, const std::string& raw, const std::stri
 void walk(const YAML::Node& node, const std::string& prefix, const std::string& file,
           ParamSet& set) {
   for (auto it = node.begin(); it != node.end(); ++it) {
-    const auto& mark = it->first.Mark();
+    // yaml-cpp's iterator hands out a temporary proxy: copy what it holds (Node is a handle),
+    // never bind a reference to its members.
+    const YAML::Mark mark = it->first.Mark();
     const std::string where =
         file + ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1);
     const std::string key = prefix.empty() ? it->first.as<std::string>()
                                            : prefix + "." + it->first.as<std::string>();
-    const YAML::Node& v = it->second;
+    const YAML::Node v = it->second;
     if (v.IsMap()) {
       walk(v, key, file, set);
     } else if (v.IsScalar()) {
