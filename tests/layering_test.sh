@@ -9,9 +9,12 @@ for layer in core robot kinematics planning grasp perception; do
   hits=$(grep -nE '#include [<"](mujoco/|sim/|task/|bt/|campaign/|cli/)' "$layer"/*.h "$layer"/*.cc 2>/dev/null)
   if [ -n "$hits" ]; then echo "layer $layer includes a layer above it or MuJoCo:"; echo "$hits"; fail=1; fi
 done
-hits=$(grep -nE '#include [<"](bt/|campaign/|cli/|mujoco/)' task/*.h task/*.cc sim/*.h 2>/dev/null)
-if [ -n "$hits" ]; then echo "task/ includes the behavior-tree layer, campaign/, cli/ or MuJoCo:"; echo "$hits"; fail=1; fi
-for layer in core robot sim kinematics planning grasp perception task bt; do
+hits=$(grep -nE '#include [<"](bt/|faults/|campaign/|cli/|mujoco/)' task/*.h task/*.cc sim/*.h 2>/dev/null)
+if [ -n "$hits" ]; then echo "task/ includes the behavior-tree layer, faults/, campaign/, cli/ or MuJoCo:"; echo "$hits"; fail=1; fi
+# Fault injection reaches the task through its hooks and the hardware it wraps: never the tree or MuJoCo.
+hits=$(grep -nE '#include [<"](bt/|campaign/|cli/|mujoco/)' faults/*.h faults/*.cc 2>/dev/null)
+if [ -n "$hits" ]; then echo "faults/ includes the behavior-tree layer, campaign/, cli/ or MuJoCo:"; echo "$hits"; fail=1; fi
+for layer in core robot sim kinematics planning grasp perception task bt faults; do
   hits=$(grep -nE '#include [<"](campaign/|cli/)' "$layer"/*.h "$layer"/*.cc 2>/dev/null)
   if [ -n "$hits" ]; then echo "layer $layer includes campaign/ or cli/:"; echo "$hits"; fail=1; fi
 done

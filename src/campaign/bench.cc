@@ -49,7 +49,7 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
     auto hw = makeMujocoHardware(*world, robot, spawn.active);
     const auto t1 = Clock::now();
     std::string bt_log;
-    const TrialOutcome by_tree = runner.run(*hw, static_cast<uint64_t>(i), bt_log);
+    const TrialOutcome by_tree = runner.run(*hw, *world, static_cast<uint64_t>(i), bt_log);
     const auto t2 = Clock::now();
     world->recordControls(nullptr);
     ok += by_tree.success;

@@ -30,6 +30,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
+std::string fixed(double v, int precision) {
+  std::ostringstream o;
+  o << std::fixed << std::setprecision(precision) << v;
+  return o.str();
+}
+
 TrialRecord makeRecord(const Experiment& e, uint64_t trial, const SpawnResult& spawn, TrialOutcome o, const std::string& bt_log) {
   TrialRecord r;
   r.trial = trial;
@@ -108,8 +114,8 @@ Summary summarize(const Experiment& e, const std::vector<TrialRecord>& trials, d
   t << "  Overall Yield:     " << 100.0 * s.overall_yield << "%  [95% CI " << 100 * s.overall_ci95[0] << ", " << 100 * s.overall_ci95[1]
     << "]\n";
   t << "  Recovery Rate:     "
-    << (s.recoveries_needed ? std::to_string(100.0 * s.recovery_rate) + "% (" + std::to_string(s.recovered) + " of " +
-                                  std::to_string(s.recoveries_needed) + ")"
+    << (s.recoveries_needed ? fixed(100.0 * s.recovery_rate, 1) + "% (" + std::to_string(s.recovered) + " of " +
+                                  std::to_string(s.recoveries_needed) + " trials that needed one)"
                             : std::string("n/a (no recovery needed)"))
     << "\n";
   t << std::string(64, '-') << "\n" << std::setprecision(2);
@@ -130,6 +136,24 @@ Summary summarize(const Experiment& e, const std::vector<TrialRecord>& trials, d
   t << "  Objects placed:    " << s.objects_placed << " (" << s.objects_left_in_bin << " left in bins; " << s.bins_cleared << " of "
     << n << " bins empty)\n";
   t << "  Max Tracking Err:  " << std::setprecision(4) << s.max_tracking_error << " rad\n";
+  if (!s.faults.empty()) {
+    t << std::string(64, '-') << "\n  Faults: injected, detected; recovered of those judged (unrecoverable kinds:\n"
+      << "  correctly given up), Wilson 95% interval; MTTR (onset to the stage's success)\n";
+    for (const FaultStats& f : s.faults) {
+      t << "    " << std::left << std::setw(22) << f.kind << std::right << std::setw(4) << f.injected << " inj, " << std::setw(3)
+        << f.detected << " det, ";
+      const long good = f.recoverable ? f.recovered : f.given_up;
+      if (f.recovery >= 0)
+        t << (f.recoverable ? "recovered " : "given up ") << good << "/" << good + f.unrecovered << " = " << std::setprecision(1)
+          << 100 * f.recovery << "% [" << 100 * f.ci95[0] << ", " << 100 * f.ci95[1] << "]";
+      else
+        t << "none judged";
+      if (f.mttr_mean >= 0) t << std::setprecision(2) << ", MTTR " << f.mttr_mean << " s";
+      t << "\n";
+    }
+    t << std::setprecision(1) << "  MTBF:              " << (s.mtbf >= 0 ? fixed(s.mtbf, 1) + " s (simulated)" : std::string("no unrecovered failure"))
+      << "; protective stops: " << s.protective_stops << "\n";
+  }
   if (!s.failure_stages.empty()) {
     t << std::string(64, '-') << "\n  Failure Analysis:\n";
     for (const auto& [stage, count] : s.failure_stages) t << "    " << stage << ": " << count << "\n";
@@ -189,17 +213,22 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
   std::ofstream jsonl(out / "trials.jsonl", std::ios::app);
 
   const auto t0 = std::chrono::steady_clock::now();
-  std::vector<TrialRecord> results(e.trials);
+  std::vector<uint64_t> order;
+  for (int64_t t : e.only) order.push_back(static_cast<uint64_t>(t));
+  if (order.empty())
+    for (int64_t t = 0; t < e.trials; ++t) order.push_back(static_cast<uint64_t>(t));
+  const long count = static_cast<long>(order.size());
+  std::vector<TrialRecord> results(count);
   std::atomic<long> next{0};
   std::mutex mu;
   long done = 0, ok = 0;
-  Progress progress(e.progress, e.trials);
+  Progress progress(e.progress, count);
   std::exception_ptr error;
   auto worker = [&](SimWorld& world) {
     try {
       TrialRunner runner(e, cell, tree, (out / "bt").string(), date);
-      for (long i; (i = next++) < e.trials;) {
-        const uint64_t trial = static_cast<uint64_t>(i);
+      for (long i; (i = next++) < count;) {
+        const uint64_t trial = order[i];
         Rng rng_scene = Rng::stream(e.seed, trial, Purpose::kScene);
         const SpawnResult spawn = spawnObjects(world, robot, cell.T_world_bin, cell.bin_half, rng_scene, e.spawn);
         TrialOutcome o;
@@ -210,7 +239,7 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
         } else {
           auto hw = e.hardware == "mock" ? makeMockHardware(world, robot, spawn.active)
                                          : makeMujocoHardware(world, robot, spawn.active);
-          o = runner.run(*hw, trial, bt_log);
+          o = runner.run(*hw, world, trial, bt_log);
         }
         TrialRecord record = makeRecord(e, trial, spawn, std::move(o), bt_log.empty() ? "" : fs::relative(bt_log, out).string());
         const std::string line = toJsonLine(record);
@@ -225,7 +254,7 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
     } catch (...) {
       std::lock_guard<std::mutex> lock(mu);
       if (!error) error = std::current_exception();
-      next = e.trials;  // stop the others
+      next = count;  // stop the others
     }
   };
   std::vector<std::thread> threads;

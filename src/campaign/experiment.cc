@@ -1,5 +1,6 @@
 #include "campaign/experiment.h"
 
+#include <cmath>
 #include <filesystem>
 
 #include "core/error.h"
@@ -10,6 +11,8 @@ namespace mm {
 void Experiment::declare(ConfigArchive& a) {
   a.value("name", name, "campaign name; results go to results/<name>/ unless --out");
   a.value("trials", trials, {1, 1e7}, "", "number of trials (--trials overrides)");
+  a.list("only", only, {0, 1e7},
+         "run only these trials (indices below trials), each exactly as in the full campaign: a failed trial again, alone (--only 44,117)");
   a.value("seed", seed, {0, 9.007e15}, "", "campaign seed; every random choice derives from (seed, trial, purpose)");
   a.choice("hardware", hardware, hardwareNames(), "mujoco: physics; mock: joints follow commands exactly");
   a.path("robot", robot_path, "robot YAML (a path in a file is relative to the file; --set, to the working directory; the default, to the project root)");
@@ -24,6 +27,9 @@ void Experiment::declare(ConfigArchive& a) {
   perception.declare(a);
   a.leave();
   task.declare(a);
+  a.enter("faults");
+  faults.declare(a);
+  a.leave();
   a.enter("bt");
   tree_run.declare(a);
   a.choice("log", bt_log, {"none", "failed_or_recovered", "all"},
@@ -60,6 +66,10 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
   if (e.spawn.count_min > e.spawn.count_max)
     throw InputError(path, "objects.count_min (" + std::to_string(e.spawn.count_min) + ") must be <= objects.count_max (" +
                                std::to_string(e.spawn.count_max) + ")");
+  for (int64_t t : e.only)
+    if (t >= e.trials)
+      throw InputError(path, "'only' lists trial " + std::to_string(t) + ", expected indices below trials (" +
+                                 std::to_string(e.trials) + ")");
   e.spawn.physics = e.hardware == "mujoco";
   return e;
 }

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "bt/trial_runner.h"
+#include "faults/faults.h"
 #include "core/config.h"
 #include "core/params.h"
 #include "perception/perception.h"
@@ -19,6 +20,7 @@ struct Experiment {
   std::string file;  ///< the YAML it came from
   std::string name = "quickstart";
   int64_t trials = 100;
+  std::vector<int64_t> only;  ///< run only these trial indices (each exactly as in the full campaign)
   uint64_t seed = 1;
   std::string hardware = "mujoco";  ///< see hardwareNames()
   /// Paths, resolved: set in the file, against its folder; by --set, against the working
@@ -33,6 +35,7 @@ struct Experiment {
   PerceptionOptions perception;
   TaskOptions task;
   bt::TreeRunOptions tree_run;
+  FaultOptions faults;
   ParamSet params{{}};  ///< every value as used (for config.resolved.yaml)
 
   /// Every key of an experiment file, in the order of the config reference.

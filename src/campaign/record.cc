@@ -7,6 +7,7 @@
 
 #include "campaign/stats.h"
 #include "core/error.h"
+#include "faults/faults.h"
 
 namespace mm {
 
@@ -23,9 +24,8 @@ void TrialRecord::describe(RecordArchive& a) {
   a.field("failure_stage", o.failure_stage, "", "the stage that failed (null on success)");
   a.field("failure_reason", o.failure_reason, "", "why, in words");
   std::string kind = o.success ? "" : failureKindName(o.failure_kind);
-  a.field("failure_kind", kind, "",
-          "perception, no_grasp, ik, collision, planning, time_parameterization, grasp_missed, dropped, sim_unstable, "
-          "placement, halted, timeout, tree or precondition (null on success)");
+  static const std::string kinds = failureKindList() + " (null on success)";
+  a.field("failure_kind", kind, "", kinds.c_str());
   o.failure_kind = failureKindFromName(kind);
   a.field("tree", o.tree, "", "the behavior tree's ID");
   a.field("tree_status", o.tree_status, "", "SUCCESS, FAILURE, TIMEOUT (simulated-time budget) or ERROR (a script or port)");
@@ -92,6 +92,20 @@ void TrialRecord::describe(RecordArchive& a) {
     f.field("sim_time", r.sim_time, "s", "since the trial started");
     f.field("handled", r.handled, "", "the tree started another action after it");
   }, "every failure an action recorded");
+  size_t n_faults = o.faults.size();
+  a.list("faults", n_faults, [&](size_t i, RecordArchive& f) {
+    if (f.reading() && o.faults.size() <= i) o.faults.resize(i + 1);
+    FaultRecord& r = o.faults[i];
+    f.field("kind", r.kind, "", "the fault catalogue's name");
+    f.field("stage", r.stage, "", "where it struck");
+    f.field("sim_time", r.sim_time, "s", "onset, since the trial started");
+    f.field("detected", r.detected, "", "a failure was recorded after the onset");
+    f.field("detected_time", r.detected_time, "s", "when (-1: never)");
+    f.field("detected_by", r.detected_by, "", "that failure's stage and kind");
+    f.field("recovery", r.recovery, "", "what the trial achieved after the detection (its milestones), until it recovered or ended");
+    f.field("outcome", r.outcome, "", "recovered, given_up (correctly: no action could succeed), unrecovered, no_effect or superseded (its object taken away by another fault first)");
+    f.field("mttr", r.mttr, "s", "onset until the interrupted stage next succeeded, compute included (-1: did not)");
+  }, "every fault injected");
   a.field("bt_log", bt_log, "", "the trial's .db3, relative to the results folder (null unless kept)");
   size_t n_stages = o.stages.size();
   a.list("stages", n_stages, [&](size_t i, RecordArchive& s) {
@@ -155,6 +169,26 @@ void CampaignSummary::describe(RecordArchive& a) {
   a.field("sim_unstable", sim_unstable, "", "trials");
   a.field("dropped", dropped, "", "trials");
   a.field("failure_stages", failure_stages, "", "failed trials by stage");
+  size_t n_kinds = faults.size();
+  a.list("faults", n_kinds, [&](size_t i, RecordArchive& f) {
+    if (f.reading() && faults.size() <= i) faults.resize(i + 1);
+    FaultStats& s = faults[i];
+    f.field("kind", s.kind, "", "");
+    f.field("recoverable", s.recoverable, "", "some action of the robot can succeed after it (README fault catalogue)");
+    f.field("injected", s.injected, "", "");
+    f.field("no_effect", s.no_effect, "", "nothing failed after it");
+    f.field("detected", s.detected, "", "a failure followed it");
+    f.field("recovered", s.recovered, "", "the interrupted stage succeeded later and the trial succeeded (or failed after a later fault)");
+    f.field("given_up", s.given_up, "", "unrecoverable kinds: noticed and moved on from without harm (never counted as recovered)");
+    f.field("superseded", s.superseded, "", "its object was then taken away by another fault (not judged)");
+    f.field("unrecovered", s.unrecovered, "", "");
+    f.field("recovery", s.recovery, "", "recoverable kinds: recovered / (recovered + unrecovered); others: given_up / (given_up + unrecovered); -1: none");
+    f.field("ci95", s.ci95, "", "its Wilson 95% interval");
+    f.field("mttr_mean", s.mttr_mean, "s", "onset until the interrupted stage succeeded, compute included");
+    f.field("mttr_max", s.mttr_max, "s", "");
+  }, "recovery per fault kind injected");
+  a.field("mtbf", mtbf, "s", "simulated time per failure the tree did not recover (-1: none)");
+  a.field("protective_stops", protective_stops, "", "motions stopped by the controller's path tolerance (tracking error)");
   a.field("objects_placed", objects_placed, "", "");
   a.field("objects_left_in_bin", objects_left_in_bin, "", "");
   a.field("bins_cleared", bins_cleared, "", "trials that ended with the bin empty");
@@ -363,6 +397,44 @@ CampaignSummary summarizeTrials(const std::vector<TrialRecord>& trials) {
     parts["execute_place_time"].push_back(o.execute_place_time);
     parts["return_home_time"].push_back(o.return_home_time);
   }
+  // Faults, kind by kind; failures the tree did not recover; protective stops.
+  std::map<std::string, FaultStats> kinds;
+  std::map<std::string, std::vector<double>> mttr;
+  double sim_total = 0;
+  long unrecovered_failures = 0;
+  for (const TrialRecord& r : trials) {
+    sim_total += r.o.sim_time;
+    unrecovered_failures += !r.o.success;
+    for (const RecordedFailure& f : r.o.failures) s.protective_stops += f.failure.kind == FailureKind::kTracking;
+    for (const FaultRecord& f : r.o.faults) {
+      FaultStats& k = kinds[f.kind];
+      k.kind = f.kind;
+      const FaultKind kind = faultKindFromName(f.kind);
+      k.recoverable = kind == FaultKind::kCount || faultRecoverable(kind);
+      ++k.injected;
+      if (f.outcome == "no_effect") ++k.no_effect;
+      else ++k.detected;
+      if (f.outcome == "recovered") ++k.recovered, mttr[f.kind].push_back(f.mttr);
+      if (f.outcome == "given_up") ++k.given_up;
+      if (f.outcome == "superseded") ++k.superseded;
+      if (f.outcome == "unrecovered") ++k.unrecovered;
+    }
+  }
+  for (auto& [name, k] : kinds) {
+    const long good = k.recoverable ? k.recovered : k.given_up, judged = good + k.unrecovered;
+    if (judged > 0) {
+      k.recovery = double(good) / judged;
+      const auto [lo, hi] = wilson95(good, judged);
+      k.ci95 = {lo, hi};
+    }
+    if (!mttr[name].empty()) {
+      const Moments m = moments(mttr[name]);
+      k.mttr_mean = m.mean, k.mttr_max = m.max;
+    }
+    s.faults.push_back(k);
+  }
+  s.mtbf = unrecovered_failures > 0 ? sim_total / unrecovered_failures : -1;
+
   const long n = s.trials;
   const auto [fl, fh] = wilson95(s.first_pass, n);
   const auto [ol, oh] = wilson95(s.successes, n);

@@ -54,6 +54,18 @@ std::string toJsonLine(TrialRecord& r);
 /// Parses a line of trials.jsonl; throws InputError naming `where` when it is not a trial record.
 TrialRecord fromJsonLine(const std::string& line, const std::string& where);
 
+/// Recovery from one fault kind over a campaign.
+struct FaultStats {
+  std::string kind;
+  bool recoverable = true;          ///< some action of the robot can succeed after it
+  long injected = 0, no_effect = 0, detected = 0, recovered = 0, given_up = 0, superseded = 0, unrecovered = 0;
+  /// Recoverable kinds: recovered / (recovered + unrecovered); the others: given_up / (given_up +
+  /// unrecovered). -1: none to judge.
+  double recovery = -1;
+  std::vector<double> ci95;         ///< Wilson 95% interval of it
+  double mttr_mean = -1, mttr_max = -1;  ///< [s] over the recovered ones
+};
+
 /// A campaign's summary.json: yields with Wilson intervals, times, accuracy, counts, environment.
 struct CampaignSummary {
   int schema = kTrialSchema;
@@ -72,6 +84,9 @@ struct CampaignSummary {
   double collisions_per_100 = 0, max_tracking_error = 0;
   long sim_unstable = 0, dropped = 0, objects_placed = 0, objects_left_in_bin = 0, bins_cleared = 0, timeouts = 0;
   std::map<std::string, long> failure_stages;
+  std::vector<FaultStats> faults;  ///< per fault kind injected
+  double mtbf = -1;                ///< [s] simulated time per trial failure the tree did not recover (-1: none)
+  long protective_stops = 0;       ///< motions stopped by the path tolerance (tracking)
   double wall_seconds = 0, trials_per_second = 0;
   std::string minimanip, mujoco, ompl, compiler, cpu, host;
   long cores = 0, jobs = 0;

@@ -20,9 +20,13 @@ TrialRunner::TrialRunner(const Experiment& e, const Cell& cell, const bt::TreeDo
 
 TrialRunner::~TrialRunner() = default;
 
-TrialOutcome TrialRunner::run(Hardware& hw, uint64_t trial, std::string& bt_log) {
+TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial, std::string& bt_log) {
   using Clock = std::chrono::steady_clock;
+  std::unique_ptr<FaultInjector> faults;
+  if (e_.faults.any()) faults = std::make_unique<FaultInjector>(e_.faults, world, e_.seed, trial);
+  Hardware& hw = faults ? faults->wrap(backend) : backend;
   TrialContext ctx(hw, *cell_.robot, cell_.statics, e_.task, cell_.perception, e_.seed, trial);
+  ctx.faults = faults.get();
   env_.ctx = &ctx;
   std::unique_ptr<bt::Tree> tree = factory_.instantiate(doc_);
   tree->rootBlackboard().set("place_target", bt::toAny(cell_.T_world_place_target));
@@ -31,6 +35,7 @@ TrialOutcome TrialRunner::run(Hardware& hw, uint64_t trial, std::string& bt_log)
   const bt::TreeRunResult r = bt::runTree(*tree, ctx, e_.tree_run);
   const bool succeeded = r.status == bt::NodeStatus::kSuccess && !r.timeout && r.error.empty();
   finishTrial(ctx, succeeded);
+  if (faults) ctx.out.faults = faults->report(ctx);
   env_.ctx = nullptr;
   TrialOutcome out = std::move(ctx.out);
   out.tree = tree->mainTreeId();

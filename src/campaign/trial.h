@@ -49,7 +49,7 @@ class TrialRunner {
   TrialRunner& operator=(const TrialRunner&) = delete;
   /// Runs trial `trial` on `hw` (objects spawned). Returns its outcome; `bt_log` gets the .db3
   /// path when one was written.
-  TrialOutcome run(Hardware& hw, uint64_t trial, std::string& bt_log);
+  TrialOutcome run(Hardware& hw, SimWorld& world, uint64_t trial, std::string& bt_log);
   const TreeCost& cost() const { return cost_; }
 
  private:

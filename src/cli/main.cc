@@ -22,7 +22,7 @@ namespace {
 
 // `run` and `bench`: an experiment file, a few shortcuts and --set key=value.
 struct RunArgs {
-  std::string file, out, trials, seed, jobs;
+  std::string file, out, trials, seed, jobs, only;
   std::vector<std::string> sets;
 };
 
@@ -31,6 +31,7 @@ void addRunOptions(CLI::App* sub, RunArgs& r, bool with_out) {
   sub->add_option("--trials", r.trials, "number of trials (= --set trials=N)");
   sub->add_option("--seed", r.seed, "campaign seed (= --set seed=S)");
   sub->add_option("--jobs", r.jobs, "parallel workers (= --set jobs=N)");
+  sub->add_option("--only", r.only, "only these trials, e.g. 44,117 (= --set only=44,117)");
   if (with_out) sub->add_option("--out", r.out, "results folder (default results/<name>)");
   sub->add_option("--set", r.sets, "key=value, any experiment key (repeatable)")->allow_extra_args(false);
 }
@@ -40,6 +41,7 @@ mm::Experiment loadRun(const RunArgs& r) {
   if (!r.trials.empty()) sets.push_back("trials=" + r.trials);
   if (!r.seed.empty()) sets.push_back("seed=" + r.seed);
   if (!r.jobs.empty()) sets.push_back("jobs=" + r.jobs);
+  if (!r.only.empty()) sets.push_back("only=" + r.only);
   sets.insert(sets.end(), r.sets.begin(), r.sets.end());
   return mm::loadExperiment(r.file, sets);
 }

@@ -76,6 +76,11 @@ class Declarer final : public ConfigArchive {
     for (double v : f) text.push_back(numberText(v));
     add(key, ParamDecl::Kind::kRealList, join(text), r, {}, unit, help);
   }
+  void list(const char* key, std::vector<int64_t>& f, Range r, const char* help) override {
+    std::vector<std::string> text;
+    for (int64_t v : f) text.push_back(std::to_string(v));
+    add(key, ParamDecl::Kind::kIntList, join(text), r, {}, "", help);
+  }
   void list(const char* key, std::vector<std::string>& f, const std::vector<std::string>& choices, const char* help) override {
     add(key, ParamDecl::Kind::kChoiceList, join(f), {}, choices, "", help);
   }
@@ -121,6 +126,10 @@ class Reader final : public ConfigArchive {
   void list(const char* key, std::vector<double>& f, Range, const char*, const char*) override {
     f.clear();
     for (const std::string& s : splitCommas(p_.getString(fullKey(key)))) f.push_back(std::strtod(s.c_str(), nullptr));
+  }
+  void list(const char* key, std::vector<int64_t>& f, Range, const char*) override {
+    f.clear();
+    for (const std::string& s : splitCommas(p_.getString(fullKey(key)))) f.push_back(std::llround(std::strtod(s.c_str(), nullptr)));
   }
   void list(const char* key, std::vector<std::string>& f, const std::vector<std::string>&, const char*) override {
     f = splitCommas(p_.getString(fullKey(key)));

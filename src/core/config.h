@@ -42,6 +42,8 @@ class ConfigArchive {
   virtual void choice(const char* key, std::string& field, const std::vector<std::string>& choices, const char* help) = 0;
   /// A list of numbers: a YAML sequence, or "a,b,c" with --set.
   virtual void list(const char* key, std::vector<double>& field, Range range, const char* unit, const char* help) = 0;
+  /// A list of integers (indices, counts), likewise.
+  virtual void list(const char* key, std::vector<int64_t>& field, Range range, const char* help) = 0;
   /// A list of names out of `choices` (empty choices: any).
   virtual void list(const char* key, std::vector<std::string>& field, const std::vector<std::string>& choices,
                     const char* help) = 0;

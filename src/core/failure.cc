@@ -19,12 +19,22 @@ const char* failureKindName(FailureKind kind) {
     case FailureKind::kTimeout: return "timeout";
     case FailureKind::kTree: return "tree";
     case FailureKind::kPrecondition: return "precondition";
+    case FailureKind::kTracking: return "tracking";
+    case FailureKind::kPathBlocked: return "path_blocked";
   }
   return "unknown";
 }
 
+std::string failureKindList() {
+  std::string s;
+  const int last = static_cast<int>(kLastFailureKind);
+  for (int k = 1; k <= last; ++k)
+    s += std::string(k == 1 ? "" : k == last ? " or " : ", ") + failureKindName(static_cast<FailureKind>(k));
+  return s;
+}
+
 FailureKind failureKindFromName(const std::string& name) {
-  for (int k = 0; k <= static_cast<int>(FailureKind::kPrecondition); ++k)
+  for (int k = 0; k <= static_cast<int>(kLastFailureKind); ++k)
     if (name == failureKindName(static_cast<FailureKind>(k))) return static_cast<FailureKind>(k);
   return FailureKind::kNone;
 }

@@ -21,10 +21,15 @@ enum class FailureKind {
   kTimeout,               ///< the trial ran past its simulated-time budget
   kTree,                  ///< the behavior tree failed without an action failure (a condition)
   kPrecondition,          ///< an action could not run in the state it was called in
+  kTracking,              ///< a joint left the path tolerance (the controller's protective stop)
+  kPathBlocked,           ///< an obstacle sensed during a motion blocks the rest of its path
 };
+constexpr FailureKind kLastFailureKind = FailureKind::kPathBlocked;
 
 /// Stable snake_case name (written into trials.jsonl).
 const char* failureKindName(FailureKind kind);
+/// Every kind's name but kNone's: "perception, no_grasp, ... or path_blocked".
+std::string failureKindList();
 /// The kind of a name failureKindName gives; kNone for an unknown name.
 FailureKind failureKindFromName(const std::string& name);
 

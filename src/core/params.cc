@@ -27,6 +27,7 @@ std::string kindName(const ParamDecl& d) {
     }
     case ParamDecl::Kind::kPath: return "a file path";
     case ParamDecl::Kind::kRealList: return "a list of numbers";
+    case ParamDecl::Kind::kIntList: return "a list of integers";
     case ParamDecl::Kind::kChoiceList: {
       if (d.choices.empty()) return "a list of names";
       std::string s = "a list of";
@@ -89,11 +90,13 @@ std::string validate(const ParamDecl& d, const std::string& raw, const std::stri
     case ParamDecl::Kind::kPath:
       if (text.empty()) throw InputError(where, expected + ", got an empty value");
       return text;
-    case ParamDecl::Kind::kRealList: {
+    case ParamDecl::Kind::kRealList:
+    case ParamDecl::Kind::kIntList: {
       std::string canonical;
       for (const std::string& item : items(text)) {
         double v;
-        if (!parseDouble(item, v)) throw InputError(where, expected + ", got '" + item + "' in '" + text + "'");
+        if (!parseDouble(item, v) || (d.kind == ParamDecl::Kind::kIntList && v != std::floor(v)))
+          throw InputError(where, expected + ", got '" + item + "' in '" + text + "'");
         if (v < d.min || v > d.max)
           throw InputError(where, "'" + d.key + "' items must be in " + rangeText(d) + ", got " + item);
         canonical += (canonical.empty() ? "" : ",") + item;
@@ -222,7 +225,7 @@ bool ParamSet::has(const std::string& key) const { return values_.count(key) > 0
 
 bool ParamSet::isList(const std::string& key) const {
   for (const auto& d : decls_)
-    if (d.key == key) return d.kind == ParamDecl::Kind::kRealList || d.kind == ParamDecl::Kind::kChoiceList;
+    if (d.key == key) return d.isList();
   return false;
 }
 
@@ -258,7 +261,7 @@ std::string ParamSet::toYaml() const {
     }
     const std::string& v = values_.at(d.key);
     const bool quote = d.kind == ParamDecl::Kind::kString || d.kind == ParamDecl::Kind::kPath;
-    const bool list = d.kind == ParamDecl::Kind::kRealList || d.kind == ParamDecl::Kind::kChoiceList;
+    const bool list = d.isList();
     std::string shown = quote ? "\"" + v + "\"" : v;
     if (list) {
       shown = "[";
@@ -279,7 +282,7 @@ std::string ParamSet::toMarkdown() const {
     std::string allowed = d.kind == ParamDecl::Kind::kChoice ? "" : rangeText(d);
     if (d.kind == ParamDecl::Kind::kChoice || d.kind == ParamDecl::Kind::kChoiceList)
       for (size_t i = 0; i < d.choices.size(); ++i) allowed += (i ? " \\| " : "") + d.choices[i];
-    if (d.kind == ParamDecl::Kind::kRealList || d.kind == ParamDecl::Kind::kChoiceList)
+    if (d.isList())
       allowed = "list" + std::string(allowed.empty() ? "" : " of ") + allowed;
     if (d.kind == ParamDecl::Kind::kPath) allowed = "file";
     if (d.kind == ParamDecl::Kind::kBool) allowed = "true \\| false";

@@ -11,10 +11,11 @@
 namespace mm {
 
 struct ParamDecl {
-  /// kPath: a file; kRealList: numbers "a,b,c" (a YAML sequence in a file); kChoiceList: names
+  /// kPath: a file; kRealList: numbers "a,b,c" (a YAML sequence in a file); kIntList: integers, likewise; kChoiceList: names
   /// out of `choices` (any name when there are none). A kDouble in seconds (unit "s") also reads
   /// "5ms", "500us" and "0.01s".
-  enum class Kind { kInt, kDouble, kBool, kString, kChoice, kPath, kRealList, kChoiceList };
+  enum class Kind { kInt, kDouble, kBool, kString, kChoice, kPath, kRealList, kIntList, kChoiceList };
+  bool isList() const { return kind == Kind::kRealList || kind == Kind::kIntList || kind == Kind::kChoiceList; }
   std::string key;  ///< dotted path, e.g. "planning.time_limit"
   Kind kind;
   std::string default_value;  ///< as YAML text

@@ -1,6 +1,7 @@
 // Poses and small geometry helpers. T_a_b maps coordinates in frame b into frame a.
 #pragma once
 #include <Eigen/Geometry>
+#include <vector>
 
 namespace mm {
 
@@ -20,5 +21,11 @@ double yawOf(const Mat3& R);
 double wrapAngle(double a);
 /// Angle [rad] of the relative rotation between two orientations.
 double angleBetween(const Mat3& A, const Mat3& B);
+/// The rotations that map a box with half sizes `half` onto itself (signed axis permutations with
+/// determinant +1 whose permuted sizes agree within `tolerance`): 4 for a general box, 8 for a
+/// square prism, 24 for a cube. The identity comes first.
+std::vector<Mat3> boxSymmetries(const Vec3& half, double tolerance = 1e-6);
+/// Least angle [rad] between A and B * S over the symmetries S of a box with half sizes `half`.
+double boxSymmetricAngle(const Mat3& A, const Mat3& B, const Vec3& half);
 
 }  // namespace mm

@@ -29,6 +29,10 @@ Rng Rng::stream(uint64_t campaign_seed, uint64_t trial, Purpose purpose) {
   return Rng(mixSeed(campaign_seed, trial, static_cast<uint64_t>(purpose)));
 }
 
+Rng Rng::stream(uint64_t campaign_seed, uint64_t trial, Purpose purpose, uint64_t sub) {
+  return Rng(mixSeed(mixSeed(campaign_seed, trial, static_cast<uint64_t>(purpose)), sub, 0x5eed));
+}
+
 static inline uint64_t rotl(uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
 
 uint64_t Rng::next() {  // xoshiro256** (Blackman & Vigna 2018)

@@ -22,6 +22,8 @@ class Rng {
   explicit Rng(uint64_t seed);
   /// The stream for (campaign seed, trial index, purpose).
   static Rng stream(uint64_t campaign_seed, uint64_t trial, Purpose purpose);
+  /// A sub-stream of a purpose (one per fault kind, say): independent of every other.
+  static Rng stream(uint64_t campaign_seed, uint64_t trial, Purpose purpose, uint64_t sub);
 
   uint64_t next();
   /// Uniform in [0, 1).

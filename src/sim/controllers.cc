@@ -26,9 +26,9 @@ void Motion::fail(const Hardware& hw, Failure failure) {
 // ---- joint trajectory ------------------------------------------------------------------------
 
 TrajectoryMotion::TrajectoryMotion(JointTrajectory traj, double gripper_opening, double gripper_force,
-                                   StepMonitor monitor, const RobotModel& robot, double settle)
+                                   StepMonitor monitor, const RobotModel& robot, double settle, double path_tolerance)
     : traj_(std::move(traj)), opening_(gripper_opening), force_(gripper_force), monitor_(std::move(monitor)),
-      robot_(robot), settle_(settle) {}
+      robot_(robot), settle_(settle), path_tolerance_(path_tolerance) {}
 
 // Period k takes the state from sample k to sample k+1: the setpoint is the sample due at the
 // period's end (with the acceleration over the period), and the error is measured there. Then the
@@ -64,9 +64,17 @@ bool TrajectoryMotion::command(Hardware& hw) {
 
 void TrajectoryMotion::observe(Hardware& hw) {
   if (hw.unstable()) return fail(hw, FailureKind::kSimUnstable, "SIM_UNSTABLE: " + hw.instabilityReason());
-  if (streaming_)
-    max_tracking_error_ =
-        std::max(max_tracking_error_, (traj_.q.col(k_ + 1) - hw.jointPositions()).cwiseAbs().maxCoeff());
+  if (streaming_) {
+    Eigen::Index joint = 0;
+    const double error = (traj_.q.col(k_ + 1) - hw.jointPositions()).cwiseAbs().maxCoeff(&joint);
+    max_tracking_error_ = std::max(max_tracking_error_, error);
+    if (path_tolerance_ > 0 && error > path_tolerance_ && pending_.ok()) {
+      pending_ = {"", FailureKind::kTracking,
+                  "joint " + std::to_string(joint + 1) + " " + std::to_string(error) + " rad from its path (tolerance " +
+                      std::to_string(path_tolerance_) + " rad)"};
+      stop(hw);
+    }
+  }
   if (monitor_ && pending_.ok()) {
     pending_ = monitor_();
     if (!pending_.ok()) stop(hw);
@@ -75,12 +83,21 @@ void TrajectoryMotion::observe(Hardware& hw) {
   else t_settle_ += hw.period();
 }
 
-// Called from observe(), before k_ moves on: the joints were just sent to sample k_ + 1.
-void TrajectoryMotion::stop(Hardware&) {
+// Called from observe(), before k_ moves on: the joints were just sent to sample k_ + 1. After a
+// tracking error the stop is shifted onto where the joints are (as ros2_control's JTC holds the
+// measured position when it aborts): an arm held back by a contact is not pushed on into it, and
+// the next motion starts where it really is.
+void TrajectoryMotion::stop(Hardware& hw) {
+  const bool tracking = pending_.kind == FailureKind::kTracking;
+  const VecX offset = tracking ? VecX(hw.jointPositions() - traj_.q.col(std::min(k_ + 1, traj_.size() - 1))) : VecX();
   if (streaming_ && k_ + 2 < traj_.size()) {
     traj_ = controlledStop(traj_, k_ + 1, robot_.vmax(), robot_.amax(), robot_.jmax());
     k_ = -1;  // observe() moves it onto sample 0 of the stop, where the joints are being sent
+  } else if (tracking) {
+    traj_ = JointTrajectory::startingAt(traj_.q.col(std::min(k_ + 1, traj_.size() - 1)), 1, traj_.dt);
+    streaming_ = false;
   }
+  if (tracking) traj_.q.colwise() += offset;
 }
 
 void TrajectoryMotion::halt(Hardware& hw) {

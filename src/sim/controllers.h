@@ -62,8 +62,10 @@ class Motion {
 /// (after a controlled stop, as after a halt). `robot` gives the unscaled limits a stop keeps within.
 class TrajectoryMotion final : public Motion {
  public:
+  /// `path_tolerance` [rad]: a joint farther than this from its setpoint fails the motion (kTracking,
+  /// after a controlled stop), as ros2_control's JTC aborts on its path tolerance; 0: off.
   TrajectoryMotion(JointTrajectory traj, double gripper_opening, double gripper_force, StepMonitor monitor,
-                   const RobotModel& robot, double settle = 0.3);
+                   const RobotModel& robot, double settle = 0.3, double path_tolerance = 0);
   bool command(Hardware& hw) override;
   void observe(Hardware& hw) override;
   void halt(Hardware& hw) override;
@@ -75,7 +77,7 @@ class TrajectoryMotion final : public Motion {
   double opening_, force_;
   StepMonitor monitor_;
   const RobotModel& robot_;
-  double settle_;
+  double settle_, path_tolerance_;
   int k_ = 0;            // the sample the joints were last sent to
   bool streaming_ = true;
   double t_settle_ = 0;

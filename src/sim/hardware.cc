@@ -28,6 +28,7 @@ class HardwareBase : public Hardware {
   }
   ObjectState object(int i) const override { return w_.object(i); }
   Pose tcpPose() const override { return w_.tcpPose(); }
+  std::vector<Obstacle> obstacles() const override { return w_.placedObstacles(); }
   int collisionEvents() const override { return w_.collisionEvents(); }
   const std::vector<std::string>& collisionLog() const override { return w_.collisionLog(); }
   bool unstable() const override { return w_.unstable(); }

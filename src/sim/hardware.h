@@ -42,10 +42,45 @@ class Hardware {
   virtual ObjectState object(int i) const = 0;
   virtual Vec3 objectVelocity(int i) const = 0;
   virtual Pose tcpPose() const = 0;
+  /// Obstacles that are not part of the cell (placed on the table since the trial began), as an
+  /// obstacle sensor sees them: what the robot learns by perceiving.
+  virtual std::vector<Obstacle> obstacles() const = 0;
   virtual int collisionEvents() const = 0;
   virtual const std::vector<std::string>& collisionLog() const = 0;
   virtual bool unstable() const = 0;
   virtual const std::string& instabilityReason() const = 0;
+};
+
+/// A Hardware that passes every call on to another one; a decorator (fault injection, a test's
+/// recorder) overrides only what it changes.
+class ForwardingHardware : public Hardware {
+ public:
+  explicit ForwardingHardware(Hardware& inner) : in_(inner) {}
+  Hardware& inner() { return in_; }
+  const char* name() const override { return in_.name(); }
+  double time() const override { return in_.time(); }
+  double period() const override { return in_.period(); }
+  VecX jointPositions() const override { return in_.jointPositions(); }
+  VecX jointVelocities() const override { return in_.jointVelocities(); }
+  double gripperOpening() const override { return in_.gripperOpening(); }
+  double gripperForce() const override { return in_.gripperForce(); }
+  void write(const VecX& q, const VecX& qd, const VecX& qdd) override { in_.write(q, qd, qdd); }
+  VecX commandedPositions() const override { return in_.commandedPositions(); }
+  void writeGripper(double opening, double max_force) override { in_.writeGripper(opening, max_force); }
+  void step() override { in_.step(); }
+  void attach(int i, bool on) override { in_.attach(i, on); }
+  std::vector<ObjectState> objects() const override { return in_.objects(); }
+  ObjectState object(int i) const override { return in_.object(i); }
+  Vec3 objectVelocity(int i) const override { return in_.objectVelocity(i); }
+  Pose tcpPose() const override { return in_.tcpPose(); }
+  std::vector<Obstacle> obstacles() const override { return in_.obstacles(); }
+  int collisionEvents() const override { return in_.collisionEvents(); }
+  const std::vector<std::string>& collisionLog() const override { return in_.collisionLog(); }
+  bool unstable() const override { return in_.unstable(); }
+  const std::string& instabilityReason() const override { return in_.instabilityReason(); }
+
+ protected:
+  Hardware& in_;
 };
 
 /// The backends by name: "mujoco", "mock".

@@ -51,7 +51,9 @@ struct SimWorld::Impl {
   int tcp_site = -1;
   std::vector<int> obj_body, obj_qpos, obj_dof, obj_geom, obj_weld;
   std::vector<Pose> obj_park;
-  std::vector<char> robot_geom, static_geom;
+  std::vector<int> obstacle_body, obstacle_mocap, obstacle_geom;
+  std::vector<char> obstacle_placed;
+  std::vector<char> robot_geom, static_geom, foreign_geom;
   int robot_root = -1;
   ServoGains gains;
   double finger_ramp[2] = {0, 0};
@@ -87,15 +89,16 @@ struct SimWorld::Impl {
       }
     }
     // A collision event is an episode of penetrating contact between the robot and the static
-    // scene: its onset counts once, however many geoms touch, and bounces within 0.1 s of the
+    // scene or an obstacle: its onset counts once, however many geoms touch, and bounces within 0.1 s of the
     // last contact belong to the same event.
     std::set<std::pair<int, int>> now;
     for (int i = 0; i < d->ncon; ++i) {
       const mjContact& c = d->contact[i];
       if (c.dist > -1e-4) continue;  // touching within 0.1 mm is not a collision
       int r = -1, s = -1;
-      if (robot_geom[c.geom1] && static_geom[c.geom2]) r = c.geom1, s = c.geom2;
-      else if (robot_geom[c.geom2] && static_geom[c.geom1]) r = c.geom2, s = c.geom1;
+      const bool hard1 = static_geom[c.geom1] || foreign_geom[c.geom1], hard2 = static_geom[c.geom2] || foreign_geom[c.geom2];
+      if (robot_geom[c.geom1] && hard2) r = c.geom1, s = c.geom2;
+      else if (robot_geom[c.geom2] && hard1) r = c.geom2, s = c.geom1;
       if (r < 0) continue;
       now.insert({r, s});
     }
@@ -171,8 +174,21 @@ std::unique_ptr<SimWorld> SimWorld::load(const std::string& scene_xml, const Rob
     I.obj_park.push_back(makePose(Vec3(q[0], q[1], q[2]), Quat(q[3], q[4], q[5], q[6])));
   }
   if (I.obj_body.empty()) throw InputError(scene_xml, "expected object bodies named object_0, object_1, ...");
+  for (int k = 0;; ++k) {
+    const std::string name = "obstacle_" + std::to_string(k);
+    const int b = mj_name2id(m, mjOBJ_BODY, name.c_str());
+    if (b < 0) break;
+    if (m->body_mocapid[b] < 0 || m->body_geomnum[b] != 1 || m->geom_type[m->body_geomadr[b]] != mjGEOM_BOX)
+      throw InputError(scene_xml, "obstacle body '" + name + "' must be a mocap body with one box geom");
+    I.obstacle_body.push_back(b);
+    I.obstacle_mocap.push_back(m->body_mocapid[b]);
+    I.obstacle_geom.push_back(m->body_geomadr[b]);
+  }
+  I.obstacle_placed.assign(I.obstacle_body.size(), 0);
   I.robot_geom.assign(m->ngeom, 0);
   I.static_geom.assign(m->ngeom, 0);
+  I.foreign_geom.assign(m->ngeom, 0);
+  for (int g : I.obstacle_geom) I.foreign_geom[g] = 1;
   for (int g = 0; g < m->ngeom; ++g) {
     int b = m->geom_bodyid[g];
     if (b == 0) {
@@ -195,6 +211,7 @@ void SimWorld::reset(const VecX& q_arm) {
     if (I.obj_weld[k] >= 0) I.m->eq_active[I.obj_weld[k]] = 0;
   for (int i = 0; i < I.dof; ++i) I.d->qpos[I.arm_qpos[i]] = q_arm[i];
   setFingers(I.m->jnt_range[2 * I.m->dof_jntid[I.finger_dof[0]] + 1]);
+  std::fill(I.obstacle_placed.begin(), I.obstacle_placed.end(), 0);  // mj_resetData parked them
   I.touching.clear();
   I.last_contact_time = -1e9;
   I.collision_events = 0;
@@ -273,6 +290,45 @@ void SimWorld::setObjectPose(int i, const Pose& T) {
 }
 
 void SimWorld::parkObject(int i) { setObjectPose(i, impl_->obj_park[i]); }
+
+int SimWorld::numObstacles() const { return static_cast<int>(impl_->obstacle_body.size()); }
+
+Vec3 SimWorld::obstacleHalfSize(int k) const {
+  const mjtNum* s = impl_->m->geom_size + 3 * impl_->obstacle_geom[k];
+  return Vec3(s[0], s[1], s[2]);
+}
+
+void SimWorld::placeObstacle(int k, const Pose& T) {
+  Impl& I = *impl_;
+  // The geom's offset in its body is part of the pose asked for: place the body so the geom lands there.
+  const int g = I.obstacle_geom[k];
+  const Pose T_body_geom = makePose(Vec3(I.m->geom_pos[3 * g], I.m->geom_pos[3 * g + 1], I.m->geom_pos[3 * g + 2]),
+                                    Quat(I.m->geom_quat[4 * g], I.m->geom_quat[4 * g + 1], I.m->geom_quat[4 * g + 2], I.m->geom_quat[4 * g + 3]));
+  const Pose T_body = T * T_body_geom.inverse();
+  const Quat q(T_body.linear());
+  mjtNum* p = I.d->mocap_pos + 3 * I.obstacle_mocap[k];
+  mjtNum* r = I.d->mocap_quat + 4 * I.obstacle_mocap[k];
+  p[0] = T_body.translation().x(), p[1] = T_body.translation().y(), p[2] = T_body.translation().z();
+  r[0] = q.w(), r[1] = q.x(), r[2] = q.y(), r[3] = q.z();
+  I.obstacle_placed[k] = 1;
+  mj_kinematics(I.m, I.d);
+}
+
+std::vector<Obstacle> SimWorld::placedObstacles() const {
+  const Impl& I = *impl_;
+  std::vector<Obstacle> out;
+  for (size_t k = 0; k < I.obstacle_body.size(); ++k) {
+    if (!I.obstacle_placed[k]) continue;
+    const int g = I.obstacle_geom[k];
+    Obstacle o;
+    o.type = Obstacle::Type::kBox;
+    o.size = obstacleHalfSize(static_cast<int>(k));
+    o.T_world = poseOf(I.d->geom_xpos + 3 * g, I.d->geom_xmat + 9 * g);
+    o.name = mj_id2name(I.m, mjOBJ_BODY, I.obstacle_body[k]);
+    out.push_back(o);
+  }
+  return out;
+}
 
 double SimWorld::objectPenetration(int i) const {
   const Impl& I = *impl_;

@@ -55,6 +55,15 @@ class SimWorld {
   void parkObject(int i);
   /// Deepest penetration [m, >= 0] between object i and anything else.
   double objectPenetration(int i) const;
+
+  // Obstacles: mocap bodies named obstacle_<k>, one box geom each, parked off the table until
+  // placed (the obstacle_added fault). The robot touching one is a collision event.
+  int numObstacles() const;
+  Vec3 obstacleHalfSize(int k) const;             ///< [m]
+  void placeObstacle(int k, const Pose& T_world_box);  ///< its box's frame; parked again by reset()
+  /// The obstacles placed since the last reset, as boxes in the world frame.
+  std::vector<Obstacle> placedObstacles() const;
+
   /// Height [m] of the first surface below point p, ignoring object `exclude` (-1: none).
   double surfaceBelow(const Vec3& p, int exclude) const;
 

@@ -33,24 +33,17 @@ Obstacle boxOf(const ObjectState& o) {
 }
 
 // Angle between two box orientations, modulo the box's symmetry about its vertical axis.
-double symmetricAngle(const Mat3& A, const Mat3& B, int fold) {
-  double best = INFINITY;
-  for (int k = 0; k < fold; ++k) best = std::min(best, angleBetween(A, B * rotZ(2 * M_PI * k / fold)));
-  return best;
-}
-
-int yawSymmetry(const Vec3& half) { return std::abs(half.x() - half.y()) < 1e-6 ? 4 : 2; }
-
 bool picked(const TrialContext& ctx, int index) {
   return std::find(ctx.picked.begin(), ctx.picked.end(), index) != ctx.picked.end();
 }
 
-// The world as the planner knows it: the static cell, the perceived objects not yet picked (but
+// The world as the planner knows it: the static cell, the obstacles sensed, the perceived objects not yet picked (but
 // `exclude`), the objects let go of at their targets (but `exclude`), and the held object when
 // `attached`.
 PlanningScene planningScene(const TrialContext& ctx, int exclude, bool attached) {
   PlanningScene s;
   s.obstacles = ctx.statics;
+  s.obstacles.insert(s.obstacles.end(), ctx.seen_obstacles.begin(), ctx.seen_obstacles.end());
   for (const ObjectState& o : ctx.objects)
     if (o.index != exclude && !picked(ctx, o.index)) s.obstacles.push_back(boxOf(o));
   for (const PickRecord& p : ctx.out.picks)
@@ -103,6 +96,8 @@ IkResult ikFar(TrialContext& ctx, const Pose& T, const VecX& seed) {
 // the samples of methods that leave the straight segments, which back off where one is invalid.
 Failure connect(TrialContext& ctx, const std::string& stage, CollisionChecker& checker, const PlanningScene& scene,
                 const VecX& start, const VecX& goal, JointTrajectory& out) {
+  if (ctx.faults && ctx.faults->failPlanning(ctx, stage))
+    return {stage, FailureKind::kPlanning, "planner " + ctx.options.planner.planner + ": no solution (injected fault)"};
   PlanResult r = planJointPath(ctx.robot, checker, start, goal, ctx.rng_plan.next(), ctx.options.planner);
   if (ctx.options.optimizer == "chomp" && r.ok) r.path = chompSmooth(ctx.robot, scene, checker, r.path).path;
   if (!r.ok) return {stage, r.kind, r.reason};
@@ -110,6 +105,7 @@ Failure connect(TrialContext& ctx, const std::string& stage, CollisionChecker& c
                                  ctx.hw.period(), [&](const VecX& q) { return checker.isValid(q); });
   if (t.trajectory.empty()) return {stage, FailureKind::kTimeParameterization, t.failure};
   out = std::move(t.trajectory);
+  ctx.milestone("plan:" + stage);
   return {};
 }
 
@@ -191,6 +187,7 @@ class PlanExecution final : public Motion {
  private:
   void startStep(Hardware& hw) {
     const PlanStep& s = plan_.steps[next_++];
+    ctx_.picking = plan_.name == "pick" && ctx_.held < 0 ? plan_.object : -1;
     stage_name_ = s.stage;
     stage_index_ = ctx_.out.stages.size();
     ctx_.stage(s.stage);
@@ -198,9 +195,14 @@ class PlanExecution final : public Motion {
     const double force = ctx_.options.grasp_force;
     switch (s.kind) {
       case PlanStep::Kind::kTrajectory: {
-        StepMonitor monitor;
-        if (s.holding) monitor = [this] { return dropCheck(); };
-        current_ = std::make_unique<TrajectoryMotion>(s.trajectory, s.opening, force, monitor, ctx_.robot);
+        step_start_ = hw.time();
+        next_look_ = hw.time() + ctx_.options.scene_update_period;
+        StepMonitor monitor = [this, holding = s.holding] {
+          Failure f = holding ? dropCheck() : Failure{};
+          return f.ok() ? pathCheck() : f;
+        };
+        current_ = std::make_unique<TrajectoryMotion>(s.trajectory, s.opening, force, monitor, ctx_.robot, 0.3,
+                                                      ctx_.options.path_tolerance);
         ctx_.gripper_opening = s.opening;
         break;
       }
@@ -251,11 +253,29 @@ class PlanExecution final : public Motion {
           return fail(hw, Failure{s.stage, FailureKind::kGraspMissed,
                                   "nothing between the fingers (closed to " + std::to_string(opening * 1000) + " mm)"});
         }
+        if (opening > s.expected_opening + 0.005)
+          return fail(hw, Failure{s.stage, FailureKind::kGraspMissed,
+                                  "the fingers did not close (still " + std::to_string(opening * 1000) + " mm open)"});
       }
     }
   }
 
-  void attach(Hardware& hw) { hold(hw, plan_.object, plan_.object_half, plan_.T_tcp_object, plan_.grasp_candidates_tried); }
+  void attach(Hardware& hw) {
+    int object = plan_.object;
+    const std::vector<ObjectState> world = hw.objects();
+    if (std::none_of(world.begin(), world.end(), [&](const ObjectState& o) { return o.index == object; })) {
+      // The object the robot meant is not there (a phantom detection): what the fingers closed on
+      // is the real object nearest the TCP.
+      object = -1;
+      double best = 0.03;
+      for (const ObjectState& o : world) {
+        const double d = (o.T_world_object.translation() - hw.tcpPose().translation()).norm();
+        if (d < best) best = d, object = o.index;
+      }
+      if (object < 0) return;
+    }
+    hold(hw, object, plan_.object_half, plan_.T_tcp_object, plan_.grasp_candidates_tried);
+  }
 
   // The fingers closed on something: the perceived object nearest the TCP (within 2 cm), if any.
   void takeHoldOfObjectBetweenFingers(Hardware& hw) {
@@ -293,8 +313,12 @@ class PlanExecution final : public Motion {
     if (ctx_.held < 0) return;
     PickRecord r = ctx_.held_record;
     r.at_target = ctx_.over_target.has_value();
-    if (r.at_target) r.T_world_target = *ctx_.over_target;
-    else forget(ctx_.held);
+    if (r.at_target) {
+      r.T_world_target = *ctx_.over_target;
+      ctx_.milestone("place");
+    } else {
+      forget(ctx_.held);
+    }
     ctx_.out.picks.push_back(r);
     ctx_.held = -1;
     ctx_.over_target.reset();
@@ -313,6 +337,35 @@ class PlanExecution final : public Motion {
     ctx_.picked.erase(std::remove(ctx_.picked.begin(), ctx_.picked.end(), object), ctx_.picked.end());
   }
 
+  // The planning scene monitor: every scene_update_period the robot senses obstacles; when they
+  // changed, the rest of the path (from the sample being tracked) is checked against them.
+  Failure pathCheck() {
+    const double period = ctx_.options.scene_update_period;
+    if (!(period > 0) || ctx_.hw.time() < next_look_ - 1e-9) return {};
+    next_look_ += period;
+    if (!ctx_.senseObstacles() || ctx_.seen_obstacles.empty()) return {};
+    const JointTrajectory& traj = step_->trajectory;
+    if (traj.size() == 0) return {};
+    PlanningScene scene;
+    scene.obstacles = ctx_.seen_obstacles;
+    if (ctx_.held >= 0) {
+      scene.has_attached = true;
+      scene.attached_half = ctx_.held_record.half_size;
+      scene.T_tcp_attached = ctx_.T_tcp_held;
+    }
+    scene.finger_opening = step_->opening;
+    auto checker = makeChecker("fcl", ctx_.robot, scene, 0.0);
+    const int from = std::clamp(static_cast<int>(std::lround((ctx_.hw.time() - step_start_) / traj.dt)), 0, traj.size() - 1);
+    const int last = traj.size() - 1;
+    for (int k = from;; k = std::min(k + 5, last)) {  // every 10 ms of the path
+      if (!checker->isValid(traj.q.col(k)))
+        return {"", FailureKind::kPathBlocked,
+                "an obstacle sensed during the motion blocks the rest of the path (" + checker->lastCollision() + " at " +
+                    std::to_string(static_cast<int>(100.0 * k / std::max(1, last))) + "%)"};
+      if (k == last) return {};
+    }
+  }
+
   Failure dropCheck() {
     if (ctx_.held < 0) return {};
     const Hardware& hw = ctx_.hw;
@@ -324,6 +377,7 @@ class PlanExecution final : public Motion {
   }
 
   TrialContext& ctx_;
+  double step_start_ = 0, next_look_ = 0;  // the trajectory step's start; the next obstacle sensing
   Plan plan_;
   size_t next_ = 0, stage_index_ = 0;
   const PlanStep* step_ = nullptr;
@@ -341,10 +395,13 @@ Failure detectObjects(TrialContext& ctx) {
   std::vector<ObjectState> truth;
   for (const ObjectState& o : ctx.hw.objects())
     if (o.index != ctx.held) truth.push_back(o);
-  const PerceptionResult p = perceive(truth, ctx.perception, ctx.rng_perception);
+  PerceptionResult p = perceive(truth, ctx.perception, ctx.rng_perception);
+  if (ctx.faults) ctx.faults->onPerception(ctx, p);
+  ctx.senseObstacles();
   st.compute_seconds = since(t);
   ctx.out.perception_time += st.compute_seconds;
   if (!p.ok) return ctx.fail({"perception", FailureKind::kPerception, p.reason});
+  ctx.milestone("perception");
   const bool first = ctx.objects.empty() && ctx.picked.empty();
   ctx.objects = p.objects;
   if (first) ctx.out.objects_in_bin = static_cast<int>(ctx.objects.size());
@@ -526,6 +583,7 @@ Failure planPick(TrialContext& ctx, const GraspSolution& g, Plan& out) {
   out.T_tcp_object = g.T_tcp_object;
   out.T_world_grasp = g.candidate.T_world_tcp;
   out.grasp_candidates_tried = g.candidates_tried;
+  if (ctx.faults) ctx.faults->onPlanned(ctx, out);
   return done({});
 }
 
@@ -550,17 +608,24 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   PlanningScene ps = planningScene(ctx, -1, true);
   ps.attached_padding = -kSupportTolerance;
   auto descending = makeChecker(o.checker, ctx.robot, ps, o.padding);
-  // TCP poses that put the object at the target, one per symmetric yaw; least wrist turn first.
-  const int fold = yawSymmetry(half);
+  // TCP poses that put the object at the target, one per symmetry of the box (a cube held on its
+  // side is placed on that side) that keeps the hand within 45 deg of pointing down; least wrist
+  // turn and tilt first.
   Pose T_obj_place = T_world_object;
   T_obj_place.translation().z() += o.place_clearance;
   const double yaw_now = yawOf(ctx.robot.fk(q_lift).linear());
   std::vector<std::pair<double, Pose>> options;
-  for (int k = 0; k < fold; ++k) {
+  for (Mat3 S : boxSymmetries(half)) {
+    if (S(2, 2) > 0.5) {  // a turn about the vertical: the exact rotZ of k quarter turns
+      const long k = (std::lround(std::atan2(S(1, 0), S(0, 0)) / (M_PI / 2)) + 4) % 4;
+      S = rotZ(2 * M_PI * static_cast<double>(k) / 4);
+    }
     Pose T_obj = T_obj_place;
-    T_obj.linear() = T_obj_place.linear() * rotZ(2 * M_PI * k / fold);
+    T_obj.linear() = T_obj_place.linear() * S;
     const Pose T_tcp = T_obj * ctx.T_tcp_held.inverse();
-    options.push_back({std::abs(wrapAngle(yawOf(T_tcp.linear()) - yaw_now)), T_tcp});
+    const double tilt = std::acos(std::clamp(-T_tcp.linear()(2, 2), -1.0, 1.0));
+    if (tilt > M_PI / 4) continue;
+    options.push_back({std::abs(wrapAngle(yawOf(T_tcp.linear()) - yaw_now)) + 2 * tilt, T_tcp});
   }
   std::stable_sort(options.begin(), options.end(), [](auto& a, auto& b) { return a.first < b.first; });
   Failure last{"place_pose_ik", FailureKind::kIk, "no IK solution for any place pose"};
@@ -638,6 +703,7 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
     out.steps.push_back(trajectoryStep("retreat", std::move(t_retreat), travel, false));
     out.q_end = retreat.waypoints.back();
   }
+  if (ctx.faults) ctx.faults->onPlanned(ctx, out);
   return done_connect({});
 }
 
@@ -675,7 +741,18 @@ Failure planRetreatUp(TrialContext& ctx, double distance, Plan& out) {
   const int just_placed = ctx.out.picks.empty() ? -1 : ctx.out.picks.back().object;
   PlanningScene s = planningScene(ctx, just_placed, true);
   if (ctx.held < 0) s.finger_opening = ctx.gripper_opening;
-  auto checker = makeChecker(o.checker, ctx.robot, s, o.padding);
+  // Unpadded: backing out straight up is how the hand leaves a spot where it touches (a missed
+  // grasp among the walls), which the padded planner would call a collision from the start. An
+  // object the hand starts inside (one it pushed, perceived where it was) is left out: going up
+  // is the way off it.
+  auto checker = makeChecker(o.checker, ctx.robot, s, 0.0);
+  for (int k = 0; k < 4 && !checker->isValid(ctx.q_rest); ++k) {
+    const std::string hit = checker->lastCollision();
+    const std::string obstacle = hit.substr(hit.find(" / ") == std::string::npos ? 0 : hit.find(" / ") + 3);
+    if (std::none_of(ctx.objects.begin(), ctx.objects.end(), [&](const ObjectState& x) { return x.name == obstacle; })) break;
+    s.ignore.push_back(obstacle);
+    checker = makeChecker(o.checker, ctx.robot, s, 0.0);
+  }
   Pose T_up = ctx.robot.fk(ctx.q_rest);
   T_up.translation().z() += distance;
   const CartesianPath up = planCartesianLine(ctx.robot, *checker, ctx.q_rest, T_up, ikNear(ctx), o.cartesian);
@@ -732,6 +809,7 @@ Failure finishExecution(TrialContext& ctx, Motion& m) {
   }
   ctx.q_rest = e.plan().q_end;
   if (e.plan().places && ctx.held >= 0) ctx.over_target = e.plan().T_world_target;  // placed but not let go of
+  if (e.plan().name == "pick" || e.plan().name == "home") ctx.milestone(e.plan().name);
   return {};
 }
 
@@ -794,7 +872,7 @@ void finishTrial(TrialContext& ctx, bool tree_succeeded) {
     const ObjectState o = hw.object(p.object);
     const Vec3 pos = o.T_world_object.translation(), goal = p.T_world_target.translation();
     p.position_error = (pos - goal).head<2>().norm();
-    p.orientation_error = symmetricAngle(o.T_world_object.linear(), p.T_world_target.linear(), yawSymmetry(o.half_size));
+    p.orientation_error = boxSymmetricAngle(o.T_world_object.linear(), p.T_world_target.linear(), o.half_size);
     const double rest_error = std::abs(pos.z() - goal.z());
     const double speed = hw.objectVelocity(p.object).norm();
     if (p.position_error > ctx.options.tolerance_position)

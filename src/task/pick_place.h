@@ -46,7 +46,8 @@ Failure planPick(TrialContext& ctx, const GraspSolution& grasp, Plan& out);
 Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, Plan& out);
 /// Home from where the arm rests. Records "plan_home".
 Failure planHome(TrialContext& ctx, Plan& out);
-/// A straight retreat of `distance` [m] up from where the arm rests. Records "plan_safe".
+/// A straight retreat of `distance` [m] up from where the arm rests, checked without padding (the
+/// way out of a spot where the hand touches). Records "plan_safe".
 Failure planRetreatUp(TrialContext& ctx, double distance, Plan& out);
 /// The gripper to `opening` [m] per finger, recorded as `stage`: opening lets go of a held object;
 /// closing on an object between the fingers (a perceived one within 2 cm of the TCP) takes hold of

@@ -22,6 +22,11 @@ void TaskOptions::declare(ConfigArchive& a) {
   a.value("lift_height", lift_height, {0.02, 0.4}, "m", "straight lift after the grasp");
   a.value("retreat_distance", retreat_distance, {0.02, 0.3}, "m", "straight retreat after the release (and MoveToSafe's)");
   a.value("place_clearance", place_clearance, {0.0, 0.05}, "m", "object bottom above the tray at the release");
+  a.value("path_tolerance", path_tolerance, {0.001, 1.0}, "rad",
+          "a joint this far from its setpoint stops the motion (the controller's protective stop, as ros2_control's JTC)");
+  a.value("scene_update_period", scene_update_period, {0.0, 10.0}, "s",
+          "while moving, the robot senses new obstacles this often and stops if one blocks the rest of its path "
+          "(MoveIt's planning scene monitor); 0: never");
   a.value("velocity_scaling", scaling.velocity, {0.01, 1.0}, "", "fraction of the joint velocity limits");
   a.value("acceleration_scaling", scaling.acceleration, {0.01, 1.0}, "", "fraction of the joint acceleration limits (jerk scales alike)");
   cartesian.declare(a);

@@ -33,6 +33,8 @@ struct TaskOptions {
   double finger_margin = 0.012;          ///< [m] per finger beyond the object's half width when open
   bool weld = false;                     ///< weld-on-grasp (attach plugin) instead of friction
   double drop_distance = 0.03;           ///< [m] object this far from its in-hand pose = dropped
+  double path_tolerance = 0.05;          ///< [rad] a joint this far from its setpoint stops the motion
+  double scene_update_period = 0.1;      ///< [s] obstacle sensing while moving (0: none)
   double settle_time = 0.5;              ///< [s] simulated rest before the evaluation
   // The place area: slots in a grid centred on the place target (ComputePlacePosition).
   int place_rows = 1, place_columns = 3;

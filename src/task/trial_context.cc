@@ -1,5 +1,6 @@
 #include "task/trial_context.h"
 
+#include <algorithm>
 #include <utility>
 
 #include "core/error.h"
@@ -10,6 +11,7 @@ namespace mm {
 // ---- executor --------------------------------------------------------------------------------
 
 Executor::Step Executor::step() {
+  if (before_step_) before_step_();
   if (active_ && active_->running()) {
     if (!active_->command(hw_)) {
       ended();
@@ -54,7 +56,11 @@ TrialContext::TrialContext(Hardware& hw_, const RobotModel& robot_, const std::v
       rng_plan(Rng::stream(campaign_seed, trial, Purpose::kPlanner)),
       ik(makeIkSolver(task.ik_solver, robot_)), ik_near(makeIkSolver("dls", robot_)), executor(hw_),
       t_start(hw_.time()), q_rest(hw_.jointPositions()),
-      gripper_opening(robot_.spec().gripper.travel) {}  // the hardware starts with the gripper commanded open
+      gripper_opening(robot_.spec().gripper.travel) {  // the hardware starts with the gripper commanded open
+  executor.setBeforeStep([this] {
+    if (faults) faults->beforeStep(*this);
+  });
+}
 
 TrialContext::~TrialContext() = default;
 
@@ -107,5 +113,26 @@ double& TrialContext::executeBucket(TimeBucket b) {
 }
 
 double TrialContext::simTime() const { return hw.time() - t_start; }
+
+double TrialContext::computeSoFar() const {
+  double c = 0;
+  for (const StageRecord& s : out.stages) c += s.compute_seconds;
+  return c;
+}
+
+void TrialContext::milestone(const std::string& what) { milestones.push_back({what, simTime(), computeSoFar()}); }
+
+bool TrialContext::senseObstacles() {
+  if (perception.mode == PerceptionMode::kHardcoded) return false;
+  std::vector<Obstacle> now = hw.obstacles();
+  auto same = [](const Obstacle& a, const Obstacle& b) {
+    return a.name == b.name && (a.T_world.translation() - b.T_world.translation()).norm() < 0.01 &&
+           angleBetween(a.T_world.linear(), b.T_world.linear()) < 0.05 && (a.size - b.size).norm() < 1e-3;
+  };
+  const bool changed = now.size() != seen_obstacles.size() ||
+                       !std::equal(now.begin(), now.end(), seen_obstacles.begin(), same);
+  if (changed) seen_obstacles = std::move(now);
+  return changed;
+}
 
 }  // namespace mm

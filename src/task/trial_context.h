@@ -20,6 +20,7 @@
 #include "planning/cartesian.h"
 #include "robot/robot_model.h"
 #include "sim/controllers.h"
+#include "task/fault_hooks.h"
 #include "task/task_options.h"
 #include "task/trial_outcome.h"
 
@@ -72,6 +73,8 @@ class Executor {
     kEndedWithoutStep,  ///< the active motion ended before using the period (no time passed)
   };
   Step step();
+  /// Called before every control period (fault injection).
+  void setBeforeStep(std::function<void()> f) { before_step_ = std::move(f); }
   /// Starts `m`; the arm must not be busy. The motion is owned here until the next start;
   /// `on_end` is called once when it ends (also when it ends after a halt).
   Motion& start(std::unique_ptr<Motion> m, std::function<void(Motion&)> on_end = {});
@@ -86,6 +89,7 @@ class Executor {
   Hardware& hw_;
   std::unique_ptr<Motion> active_;
   std::function<void(Motion&)> on_end_;
+  std::function<void()> before_step_;
 };
 
 /// A grasp that passed the filters (reachable pre-grasp free of collision, straight approach and
@@ -131,6 +135,22 @@ class TrialContext {
   std::optional<Plan> plan;          ///< the current plan (PlanMTCPick / PlanMTCPlace → ExecuteMTCPlan)
   std::optional<Pose> over_target;   ///< set when a place plan has brought the held object over its target
   std::vector<Pose> failed_grasps;   ///< grasps whose execution failed (not chosen again)
+  std::vector<Obstacle> seen_obstacles;  ///< obstacles not part of the cell, as last sensed (planned around)
+  FaultHooks* faults = nullptr;      ///< fault injection, if any
+  int picking = -1;                  ///< the object whose pick is being executed (-1: none)
+
+  /// What the trial achieved and when (fault recovery is measured against these).
+  struct Milestone {
+    std::string what;  ///< "perception", "plan:<stage>", "pick", "place", "home"
+    double sim_time;   ///< [s] since the trial started
+    double compute;    ///< [s] compute wall time spent in the trial so far
+  };
+  std::vector<Milestone> milestones;
+  void milestone(const std::string& what);
+  double computeSoFar() const;
+  /// Senses the obstacles that are not part of the cell (none in the hardcoded perception mode,
+  /// which senses nothing) into seen_obstacles; true when they changed.
+  bool senseObstacles();
 
   // Bookkeeping.
   StageRecord& stage(const std::string& name);

@@ -36,6 +36,23 @@ struct RecordedFailure {
   bool handled = false;  ///< the tree started another action after it (a recovery attempt)
 };
 
+/// A fault injected into the trial and what became of it.
+struct FaultRecord {
+  std::string kind;          ///< e.g. "grasp_slip"
+  std::string stage;         ///< the stage it was injected in
+  double sim_time = 0;       ///< [s] onset, since the trial started
+  bool detected = false;     ///< a failure was recorded after the onset
+  double detected_time = -1; ///< [s]
+  std::string detected_by;   ///< that failure's stage and kind
+  std::string recovery;      ///< the stages the tree ran after the detection, until it recovered or ended
+  /// no_effect (nothing failed after it); recovered (the interrupted stage succeeded later and the
+  /// trial succeeded, or failed only after a later fault); given_up (a kind no action can recover
+  /// from, noticed and moved on from without harm); superseded (its object was then taken away);
+  /// unrecovered.
+  std::string outcome;
+  double mttr = -1;          ///< [s] onset until the interrupted stage next succeeded, compute time included
+};
+
 /// One trial's outcome. Times are [s]; errors [m] and [rad].
 struct TrialOutcome {
   bool success = false;
@@ -60,6 +77,7 @@ struct TrialOutcome {
   double grasp_opening = 0;  ///< [m] per finger after the last close
   std::vector<PickRecord> picks;  ///< every object let go of, in order
   std::vector<RecordedFailure> failures;
+  std::vector<FaultRecord> faults;  ///< injected faults
   // Recovery: failures the tree went on after (see RecordedFailure::handled).
   bool recovery_needed = false, recovery_success = false;
   int recovery_attempts = 0;

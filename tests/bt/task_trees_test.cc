@@ -20,39 +20,17 @@ namespace {
 namespace fs = std::filesystem;
 
 // Forwards to a backend and records every setpoint written to it.
-class RecordingHardware final : public Hardware {
+class RecordingHardware final : public ForwardingHardware {
  public:
-  explicit RecordingHardware(Hardware& inner) : in_(inner) {}
+  using ForwardingHardware::ForwardingHardware;
   struct Setpoint {
     VecX q, qd, qdd;
   };
   std::vector<Setpoint> written;
-  const char* name() const override { return in_.name(); }
-  double time() const override { return in_.time(); }
-  double period() const override { return in_.period(); }
-  VecX jointPositions() const override { return in_.jointPositions(); }
-  VecX jointVelocities() const override { return in_.jointVelocities(); }
-  double gripperOpening() const override { return in_.gripperOpening(); }
-  double gripperForce() const override { return in_.gripperForce(); }
   void write(const VecX& q, const VecX& qd, const VecX& qdd) override {
     written.push_back({q, qd, qdd});
     in_.write(q, qd, qdd);
   }
-  VecX commandedPositions() const override { return in_.commandedPositions(); }
-  void writeGripper(double opening, double force) override { in_.writeGripper(opening, force); }
-  void step() override { in_.step(); }
-  void attach(int i, bool on) override { in_.attach(i, on); }
-  std::vector<ObjectState> objects() const override { return in_.objects(); }
-  ObjectState object(int i) const override { return in_.object(i); }
-  Vec3 objectVelocity(int i) const override { return in_.objectVelocity(i); }
-  Pose tcpPose() const override { return in_.tcpPose(); }
-  int collisionEvents() const override { return in_.collisionEvents(); }
-  const std::vector<std::string>& collisionLog() const override { return in_.collisionLog(); }
-  bool unstable() const override { return in_.unstable(); }
-  const std::string& instabilityReason() const override { return in_.instabilityReason(); }
-
- private:
-  Hardware& in_;
 };
 
 struct Result {
@@ -84,7 +62,7 @@ Result runTree(const std::string& tree, std::vector<std::string> sets, uint64_t 
   RecordingHardware hw(*backend);
   Result r;
   std::string log;
-  r.out = runner.run(hw, trial, log);
+  r.out = runner.run(hw, *world, trial, log);
   r.written = std::move(hw.written);
   r.dt = hw.period();
   fs::remove_all(logs);

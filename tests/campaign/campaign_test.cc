@@ -132,6 +132,12 @@ TEST(Campaign, DeterministicAcrossRunsAndWorkerCounts) {
     counts.insert(a[i]["objects_in_bin"].get<int>());
   }
   EXPECT_GT(counts.size(), 1u) << "the seeded sampler should vary the number of objects";
+  // One trial again, alone, in reverse order with another: the same as in the full campaign.
+  ASSERT_EQ(runMinimanip(base + " --only 4,1 --out " + (d.path() / "o").string()).code, 0);
+  const auto o = readTrials(d.path() / "o");
+  ASSERT_EQ(o.size(), 2u);
+  EXPECT_EQ(outcomeFields(o[0]), outcomeFields(a[1]));
+  EXPECT_EQ(outcomeFields(o[1]), outcomeFields(a[4]));
   // A different seed changes the scenes.
   ASSERT_EQ(runMinimanip("run experiments/quickstart.yaml --trials 6 --seed 78 --set progress=none --out " +
                          (d.path() / "e").string()).code, 0);
@@ -187,6 +193,11 @@ TEST_F(BadInput, SetOverridesAreValidatedToo) {
 
 TEST_F(BadInput, InconsistentCounts) {
   expectRejected("run " + experiment("objects:\n  count_min: 4\n  count_max: 2\n"), "count_min \\(4\\) must be <= objects\\.count_max \\(2\\)");
+}
+
+TEST_F(BadInput, OnlyListsTrialIndices) {
+  expectRejected("run " + experiment("trials: 10\n") + " --only 3,10", "'only' lists trial 10, expected indices below trials \\(10\\)");
+  expectRejected("run " + experiment("") + " --only 1.5", "'only' expects a list of integers, got '1\\.5'");
 }
 
 TEST_F(BadInput, MalformedMjcfXml) {

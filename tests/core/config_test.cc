@@ -44,6 +44,7 @@ std::string otherValue(const ParamDecl& d) {
       for (const auto& c : d.choices)
         if (c != d.default_value) return c;
       return d.default_value;
+    case K::kIntList: return "1,2";
     case K::kRealList: return std::to_string(std::max(d.min, 0.0)) + "," + std::to_string(std::min(d.max, 0.25));
     case K::kChoiceList: return d.choices.empty() ? "a,b" : d.choices.front();
   }
@@ -65,7 +66,7 @@ std::string yamlOf(const std::string& key, const std::string& value, bool list) 
 
 bool sameValue(const ParamDecl& d, const std::string& a, const std::string& b) {
   if (d.kind == K::kInt || d.kind == K::kDouble) return std::abs(std::stod(a) - std::stod(b)) < 1e-12 * (1 + std::abs(std::stod(a)));
-  if (d.kind == K::kRealList) {
+  if (d.kind == K::kRealList || d.kind == K::kIntList) {
     const auto x = splitCommas(a), y = splitCommas(b);
     if (x.size() != y.size()) return false;
     for (size_t i = 0; i < x.size(); ++i)
@@ -102,7 +103,7 @@ TEST_F(Config, EveryExperimentKeyRoundTripsThroughYamlSetAndTheResolvedFile) {
     SCOPED_TRACE(d.key);
     const std::string v = otherValue(d);
     ASSERT_NE(v, d.default_value);
-    const bool list = d.kind == K::kRealList || d.kind == K::kChoiceList;
+    const bool list = d.isList();
     // In a file: the ParamSet holds it and the struct field got it.
     Experiment from_file = loadExperiment(file("one.yaml", yamlOf(d.key, v, list)), {});
     EXPECT_TRUE(sameValue(d, from_file.params.getString(d.key), v)) << from_file.params.getString(d.key) << " vs " << v;

@@ -93,7 +93,9 @@ TEST_P(EverySolver, DeterministicForTheSameStream) {
     req.max_iterations = GetParam() == "trac_ik_distance" ? 400 : 20000;
     const IkResult x = a->solve(req, ra), y = b->solve(req, rb);
     ASSERT_EQ(x.ok(), y.ok()) << "pose " << i;
-    if (x.ok()) EXPECT_EQ(x.q(), y.q()) << "pose " << i;
+    if (x.ok()) {
+      EXPECT_EQ(x.q(), y.q()) << "pose " << i;
+    }
   }
 }
 
