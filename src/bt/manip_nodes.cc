@@ -255,22 +255,16 @@ class WaitForGraspCandidates final : public TaskAction {
 
  protected:
   NodeStatus run(TrialContext& c) override {
-    // Objects by the room around them, most first (a stable order for equal room).
-    std::vector<std::pair<double, ObjectState>> order;
-    for (const ObjectState& a : c.objects) {
-      if (std::find(c.picked.begin(), c.picked.end(), a.index) != c.picked.end()) continue;
-      double room = 1.0;
-      for (const ObjectState& b : c.objects)
-        if (a.index != b.index && std::find(c.picked.begin(), c.picked.end(), b.index) == c.picked.end())
-          room = std::min(room, (a.T_world_object.translation() - b.T_world_object.translation()).head<2>().norm());
-      order.push_back({room, a});
-    }
-    std::stable_sort(order.begin(), order.end(), [](const auto& x, const auto& y) { return x.first > y.first; });
+    // Objects by accessibility: those with a grasp that passes every check first, each group by
+    // the room around them.
+    std::vector<const ObjectState*> order, later;
+    for (int i : objectsByRoom(c)) (graspable(c, c.objects[i]) ? order : later).push_back(&c.objects[i]);
+    order.insert(order.end(), later.begin(), later.end());
     GraspList list;
-    for (const auto& [room, object] : order) {
-      const auto candidates = graspCandidates(c, object);
+    for (const ObjectState* object : order) {
+      const auto candidates = graspCandidates(c, *object);
       for (size_t k = 0; k < candidates.size() && k < static_cast<size_t>(c.options.max_grasp_candidates); ++k)
-        list.push_back({object, candidates[k]});
+        list.push_back({*object, candidates[k]});
     }
     if (list.empty()) {
       c.stage("grasp_candidates");

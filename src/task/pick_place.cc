@@ -64,8 +64,8 @@ PlanningScene planningScene(const TrialContext& ctx, int exclude, bool attached)
   return s;
 }
 
-IkFunction ikNear(TrialContext& ctx) {
-  return [&ctx](const Pose& T, const VecX& seed, VecX& q) {
+IkFunction ikNear(TrialContext& ctx, Rng& rng) {
+  return [&ctx, &rng](const Pose& T, const VecX& seed, VecX& q) {
     IkRequest one = ctx.options.ik;
     one.target = T;
     one.seed = seed;
@@ -75,21 +75,23 @@ IkFunction ikNear(TrialContext& ctx) {
     // twice, so IK noise of 1e-5 rad would read as accelerations of several rad/s^2.
     one.tol_position = 1e-10;
     one.tol_rotation = 1e-9;
-    const IkResult r = ctx.ik_near->solve(one, ctx.rng_ik);
+    const IkResult r = ctx.ik_near->solve(one, rng);
     if (r.ok()) q = r.q();
     return r.ok();
   };
 }
+IkFunction ikNear(TrialContext& ctx) { return ikNear(ctx, ctx.rng_ik); }
 
 // The configured solver, from `seed`, kept `kLimitMargin` inside the limits, nearest the seed.
-IkResult ikFar(TrialContext& ctx, const Pose& T, const VecX& seed) {
+IkResult ikFar(TrialContext& ctx, const Pose& T, const VecX& seed, Rng& rng) {
   IkRequest req = ctx.options.ik;
   req.target = T;
   req.seed = seed;
   req.limit_margin = kLimitMargin;
   req.nearest = true;  // the least joint motion from where the arm will be
-  return ctx.ik->solve(req, ctx.rng_ik);
+  return ctx.ik->solve(req, rng);
 }
+IkResult ikFar(TrialContext& ctx, const Pose& T, const VecX& seed) { return ikFar(ctx, T, seed, ctx.rng_ik); }
 
 // A joint-space path from `start` to `goal` (the optional optimizer after the planner, CHOMP,
 // counts as planning) and its time parameterization. `checker` validated the path: it also judges
@@ -408,9 +410,8 @@ Failure detectObjects(TrialContext& ctx) {
   return {};
 }
 
-int mostAccessibleObject(const TrialContext& ctx) {
-  int target = -1;
-  double best = -1;
+std::vector<int> objectsByRoom(const TrialContext& ctx) {
+  std::vector<std::pair<double, int>> order;
   for (size_t i = 0; i < ctx.objects.size(); ++i) {
     const ObjectState& a = ctx.objects[i];
     if (picked(ctx, a.index)) continue;
@@ -418,9 +419,19 @@ int mostAccessibleObject(const TrialContext& ctx) {
     for (const ObjectState& b : ctx.objects)
       if (a.index != b.index && !picked(ctx, b.index))
         room = std::min(room, (a.T_world_object.translation() - b.T_world_object.translation()).head<2>().norm());
-    if (room > best) best = room, target = static_cast<int>(i);
+    order.push_back({room, static_cast<int>(i)});
   }
-  return target;
+  std::stable_sort(order.begin(), order.end(), [](const auto& x, const auto& y) { return x.first > y.first; });
+  std::vector<int> out;
+  for (const auto& [room, i] : order) out.push_back(i);
+  return out;
+}
+
+int mostAccessibleObject(TrialContext& ctx) {
+  const std::vector<int> order = objectsByRoom(ctx);
+  for (int i : order)
+    if (graspable(ctx, ctx.objects[i])) return i;
+  return order.empty() ? -1 : order.front();
 }
 
 int perceivedObjectAt(const TrialContext& ctx, const Pose& T_world_object) {
@@ -452,6 +463,72 @@ std::vector<GraspCandidate> graspCandidates(TrialContext& ctx, const ObjectState
   return topDownGrasps(object, preferred_yaw, neighbours, go);
 }
 
+namespace {
+
+// The checks a grasp candidate must pass (pre-grasp IK and no collision there, a straight
+// collision-free approach and lift), with the checkers of selectGrasp; fills `out`'s motions.
+struct GraspCheckers {
+  std::unique_ptr<CollisionChecker> full, no_target;
+};
+
+GraspCheckers graspCheckers(const TrialContext& ctx, const ObjectState& object) {
+  const TaskOptions& o = ctx.options;
+  PlanningScene full_scene = planningScene(ctx, -1, false), approach_scene = planningScene(ctx, object.index, false);
+  const double widest = 2 * std::max(object.half_size.x(), object.half_size.y());
+  full_scene.finger_opening = approach_scene.finger_opening = std::min(ctx.robot.spec().gripper.travel, widest / 2 + o.finger_margin);
+  return {makeChecker(o.checker, ctx.robot, full_scene, o.padding), makeChecker(o.checker, ctx.robot, approach_scene, o.padding)};
+}
+
+Failure tryGrasp(TrialContext& ctx, const ObjectState& object, const GraspCandidate& g, GraspCheckers& checkers,
+                 double approach_distance, Rng& rng, GraspSolution& out, long& collision_checks) {
+  const TaskOptions& o = ctx.options;
+  const Pose& T_grasp = g.T_world_tcp;
+  Pose T_pre = T_grasp;
+  T_pre.translation().z() += approach_distance;
+  const IkResult pre = ikFar(ctx, T_pre, ctx.robot.home(), rng);
+  if (!pre.ok()) return {"grasp_pose_ik", FailureKind::kIk, "pre-grasp: " + pre.reason};
+  if (!checkers.full->isValid(pre.q()))
+    return {"grasp_pose_ik", FailureKind::kCollision, "pre-grasp configuration in collision (" + checkers.full->lastCollision() + ")"};
+  const IkFunction near = ikNear(ctx, rng);
+  out.approach = planCartesianLine(ctx.robot, *checkers.no_target, pre.q(), T_grasp, near, o.cartesian);
+  if (!out.approach.ok) return {"approach", out.approach.kind, out.approach.reason};
+  out.q_pre = pre.q();
+  out.q_grasp = out.approach.waypoints.back();
+  out.T_tcp_object = T_grasp.inverse() * object.T_world_object;
+  // Lift with the object attached; it leaves the bin floor it rests on.
+  PlanningScene ls = planningScene(ctx, object.index, false);
+  ls.has_attached = true;
+  ls.attached_half = object.half_size;
+  ls.T_tcp_attached = out.T_tcp_object;
+  ls.finger_opening = object.half_size.y();
+  ls.attached_padding = -kSupportTolerance;
+  auto lifting = makeChecker(o.checker, ctx.robot, ls, o.padding);
+  Pose T_lift = T_grasp;
+  T_lift.translation().z() += o.lift_height;
+  out.lift = planCartesianLine(ctx.robot, *lifting, out.q_grasp, T_lift, near, o.cartesian);
+  collision_checks += lifting->checks();
+  if (!out.lift.ok) return {"lift", out.lift.kind, out.lift.reason};
+  return {};
+}
+
+}  // namespace
+
+bool graspable(TrialContext& ctx, const ObjectState& object) {
+  // A probe: its own copy of the IK stream and no record, so that choosing leaves the trial's
+  // planning exactly as it would be without it.
+  Rng rng = ctx.rng_ik;
+  const auto candidates = graspCandidates(ctx, object);
+  GraspCheckers checkers = graspCheckers(ctx, object);
+  long checks = 0;
+  int tried = 0;
+  for (const GraspCandidate& g : candidates) {
+    if (tried++ >= ctx.options.max_grasp_candidates) break;
+    GraspSolution s;
+    if (tryGrasp(ctx, object, g, checkers, ctx.options.approach_distance, rng, s, checks).ok()) return true;
+  }
+  return false;
+}
+
 Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vector<GraspCandidate>& candidates,
                     size_t first, GraspSolution& out, double approach_distance) {
   const TaskOptions& o = ctx.options;
@@ -468,11 +545,7 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
   };
   if (candidates.empty())
     return done({"grasp_pose_ik", FailureKind::kNoGrasp, "no top-down grasp for this object (tilted or too wide)"});
-  PlanningScene full_scene = planningScene(ctx, -1, false), approach_scene = planningScene(ctx, object.index, false);
-  const double widest = 2 * std::max(object.half_size.x(), object.half_size.y());
-  full_scene.finger_opening = approach_scene.finger_opening = std::min(travel, widest / 2 + o.finger_margin);
-  auto full = makeChecker(o.checker, ctx.robot, full_scene, o.padding);
-  auto no_target = makeChecker(o.checker, ctx.robot, approach_scene, o.padding);
+  GraspCheckers checkers = graspCheckers(ctx, object);
   Failure last{"grasp_pose_ik", FailureKind::kNoGrasp, "every grasp candidate failed before in this trial"};
   int tried = 0;
   bool found = false;
@@ -485,42 +558,8 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
     if (failed_before) continue;
     ++tried;
     ++ctx.out.grasp_candidates_tried;
-    const Pose& T_grasp = g.T_world_tcp;
-    Pose T_pre = T_grasp;
-    T_pre.translation().z() += approach_distance;
-    const IkResult pre = ikFar(ctx, T_pre, ctx.robot.home());
-    if (!pre.ok()) {
-      last = {"grasp_pose_ik", FailureKind::kIk, "pre-grasp: " + pre.reason};
-      continue;
-    }
-    if (!full->isValid(pre.q())) {
-      last = {"grasp_pose_ik", FailureKind::kCollision, "pre-grasp configuration in collision (" + full->lastCollision() + ")"};
-      continue;
-    }
-    out.approach = planCartesianLine(ctx.robot, *no_target, pre.q(), T_grasp, ikNear(ctx), o.cartesian);
-    if (!out.approach.ok) {
-      last = {"approach", out.approach.kind, out.approach.reason};
-      continue;
-    }
-    out.q_pre = pre.q();
-    out.q_grasp = out.approach.waypoints.back();
-    out.T_tcp_object = T_grasp.inverse() * object.T_world_object;
-    // Lift with the object attached; it leaves the bin floor it rests on.
-    PlanningScene ls = planningScene(ctx, object.index, false);
-    ls.has_attached = true;
-    ls.attached_half = object.half_size;
-    ls.T_tcp_attached = out.T_tcp_object;
-    ls.finger_opening = object.half_size.y();
-    ls.attached_padding = -kSupportTolerance;
-    auto lifting = makeChecker(o.checker, ctx.robot, ls, o.padding);
-    Pose T_lift = T_grasp;
-    T_lift.translation().z() += o.lift_height;
-    out.lift = planCartesianLine(ctx.robot, *lifting, out.q_grasp, T_lift, ikNear(ctx), o.cartesian);
-    ctx.out.collision_checks += lifting->checks();
-    if (!out.lift.ok) {
-      last = {"lift", out.lift.kind, out.lift.reason};
-      continue;
-    }
+    last = tryGrasp(ctx, object, g, checkers, approach_distance, ctx.rng_ik, out, ctx.out.collision_checks);
+    if (!last.ok()) continue;
     found = true;
     out.object = object;
     out.candidate = g;
@@ -531,7 +570,7 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
     out.pre_opening = std::min(travel, g.width / 2 + o.finger_margin);
     break;
   }
-  ctx.out.collision_checks += full->checks() + no_target->checks();
+  ctx.out.collision_checks += checkers.full->checks() + checkers.no_target->checks();
   if (!found) {
     last.reason += " (after " + std::to_string(ctx.out.grasp_candidates_tried) + " grasp candidates)";
     return done(last);

@@ -16,9 +16,12 @@ namespace mm {
 
 /// Perceives the objects in the bin into ctx.objects (without those already picked).
 Failure detectObjects(TrialContext& ctx);
-/// Index into ctx.objects of the object with the most room around it (bin picking takes the most
-/// accessible first), or -1 when there is none.
-int mostAccessibleObject(const TrialContext& ctx);
+/// Indices into ctx.objects of the objects not yet picked, the most room to a neighbour first
+/// (a stable order for equal room).
+std::vector<int> objectsByRoom(const TrialContext& ctx);
+/// Index into ctx.objects of the most accessible object: the first by room (objectsByRoom) that
+/// has a grasp passing every check (graspable), else the first by room; -1 when there is none.
+int mostAccessibleObject(TrialContext& ctx);
 /// The perceived object nearest `T_world_object` (within 5 cm), or -1.
 int perceivedObjectAt(const TrialContext& ctx, const Pose& T_world_object);
 /// Objects in the bin now (the held one is not), as the sensor's crop box sees them.
@@ -28,6 +31,9 @@ int objectsInBin(const TrialContext& ctx);
 
 /// Top-down grasp candidates for `object`, best first (neighbours: the other perceived objects).
 std::vector<GraspCandidate> graspCandidates(TrialContext& ctx, const ObjectState& object);
+/// Whether one of the object's candidates passes selectGrasp's checks (IK, collision, approach,
+/// lift) now; records nothing and draws from a copy of the IK stream.
+bool graspable(TrialContext& ctx, const ObjectState& object);
 /// The first candidate (in order, from `first`, at most options.max_grasp_candidates tried) that
 /// passes filterGrasp and has not failed before in this trial, with the pre-grasp
 /// `approach_distance` [m] above the grasp (negative: options.approach_distance). Records stage
