@@ -35,9 +35,31 @@ TEST(TopDownGrasps, FacesBothOrientationsAndSampledYaw) {
   for (size_t i = 1; i < c.size(); ++i) EXPECT_GE(c[i - 1].score, c[i].score);
 }
 
-TEST(TopDownGrasps, TiltedOrTooWideObjectsGetNone) {
+TEST(TopDownGrasps, ALeaningObjectIsGraspedAcrossItsUpperFaceAlongItsNormal) {
+  ObjectState leaning = cube(0.0);
+  leaning.T_world_object.linear() = rotX(0.6);  // 34 degrees
+  const auto grasps = topDownGrasps(leaning, 0.0, {}, GraspOptions{});
+  ASSERT_FALSE(grasps.empty());
+  const Vec3 normal = leaning.T_world_object.linear().col(2);  // the upper face's
+  for (const GraspCandidate& g : grasps) {
+    EXPECT_NEAR((g.approach - normal).norm(), 0.0, 1e-12);
+    EXPECT_NEAR((g.T_world_tcp.linear().col(2) + normal).norm(), 0.0, 1e-12);  // TCP z into the face
+    EXPECT_NEAR(g.T_world_tcp.linear().determinant(), 1.0, 1e-12);
+    // The fingers close along one of the cube's other axes (within the yaw offsets).
+    const Vec3 y = g.T_world_tcp.linear().col(1);
+    EXPECT_NEAR(y.dot(normal), 0.0, 1e-12);
+    const double c = std::max(std::abs(y.dot(leaning.T_world_object.linear().col(0))), std::abs(y.dot(leaning.T_world_object.linear().col(1))));
+    EXPECT_GE(c, std::cos(0.3) - 1e-9);
+  }
+}
+
+TEST(TopDownGrasps, ObjectsTiltedOverFiftyDegreesOrTooWideGetNone) {
   ObjectState tilted = cube(0.0);
-  tilted.T_world_object.linear() = rotX(0.6);
+  // Standing on a corner: every axis 54.7 degrees from the vertical.
+  tilted.T_world_object.linear() = Eigen::Quaterniond::FromTwoVectors(Vec3(1, 1, 1).normalized(), Vec3::UnitZ()).toRotationMatrix();
+  double up = 0;
+  for (int a = 0; a < 3; ++a) up = std::max(up, std::abs(tilted.T_world_object.linear().col(a).z()));
+  ASSERT_LT(up, std::cos(50.0 * M_PI / 180));
   EXPECT_TRUE(topDownGrasps(tilted, 0.0, {}, GraspOptions{}).empty());
   ObjectState wide = cube(0.0);
   wide.half_size = Vec3(0.05, 0.05, 0.02);  // 10 cm across: wider than the 8 cm stroke

@@ -533,7 +533,8 @@ void add(Factory& f, TaskNodeEnv& env, const std::string& id, const std::string&
 void registerTaskNodes(Factory& f, TaskNodeEnv& env) {
   add<DetectObject>(f, env, "DetectObject",
                     "Perceives the bin (the configured perception mode) and outputs the pose of the object named, or of the "
-                    "most accessible one (most room to its neighbours). FAILURE when nothing is detected.");
+                    "most accessible one: the first by room to its neighbours that has a grasp passing every check (IK, collision, "
+                    "approach, lift), else the first by room. FAILURE when nothing is detected.");
   add<PlanAndExecutePick>(f, env, "PlanAndExecutePick",
                           "Plans the pick of the detected object at object_pose (grasp candidates filtered by IK, collision, "
                           "approach and lift; path to the pre-grasp) and executes it: open, move, approach, close, attach, lift. "
@@ -556,7 +557,8 @@ void registerTaskNodes(Factory& f, TaskNodeEnv& env) {
   add<IsLessThan>(f, env, "IsLessThan", "SUCCESS when key_A < key_B (integers).");
   add<TriggerPointCloud>(f, env, "TriggerPointCloud", "Perceives the bin (as DetectObject, without choosing an object).");
   add<WaitForGraspCandidates>(f, env, "WaitForGraspCandidates",
-                              "Grasp candidates for the perceived objects: objects by accessibility, each object's candidates "
+                              "Grasp candidates for the perceived objects: objects with a grasp that passes every check first, "
+                              "each group by room to its neighbours, each object's candidates "
                               "by score (up to grasp.max_candidates each). FAILURE when there is none.");
   add<SelectBestGrasp>(f, env, "SelectBestGrasp",
                        "The first candidate that passes the source's filterGrasps (pre-grasp IK, no collision, straight "

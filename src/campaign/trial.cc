@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "bt/sqlite_log.h"
+#include "core/error.h"
 #include "bt/trial_runner.h"
 #include "sim/hardware.h"
 #include "sim/sim_world.h"
@@ -69,6 +70,9 @@ Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& worl
   const auto [T_bin, bin_half] = world.site("bin_region");
   const auto [T_place, place_half] = world.site("place_target");
   const ObjectState proto = world.object(0);
+  if (e.spawn.count_max > world.numObjects())
+    throw InputError(e.scene_path, "objects.count_max is " + std::to_string(e.spawn.count_max) + " but the scene has " +
+                                       std::to_string(world.numObjects()) + " objects (object_0 ...): expected at most that many");
   c.T_world_bin = T_bin;
   c.bin_half = bin_half;
   c.T_world_place_target = T_place;

@@ -30,11 +30,14 @@ std::vector<GraspCandidate> topDownGrasps(const ObjectState& target, double pref
                                           const std::vector<Obstacle>& neighbours, const GraspOptions& o) {
   std::vector<GraspCandidate> out;
   const Mat3 R = target.T_world_object.linear();
-  // Upright: one of the object's axes is near vertical; that axis is the "height".
-  int up = -1;
-  for (int a = 0; a < 3; ++a)
-    if (std::abs(R.col(a).z()) > std::cos(15.0 * M_PI / 180)) up = a;
-  if (up < 0) return out;
+  // The object's axis nearest the vertical is its "height"; its upper face is grasped.
+  int up = 0;
+  for (int a = 1; a < 3; ++a)
+    if (std::abs(R.col(a).z()) > std::abs(R.col(up).z())) up = a;
+  const double cos_tilt = std::abs(R.col(up).z());
+  if (cos_tilt < std::cos(50.0 * M_PI / 180)) return out;
+  const bool upright = cos_tilt > std::cos(15.0 * M_PI / 180);
+  const Vec3 normal = R.col(up).z() > 0 ? Vec3(R.col(up)) : Vec3(-R.col(up));  // the upper face's
   const Vec3 c = target.T_world_object.translation();
   const double top = c.z() + target.half_size[up];
   for (int a = 0; a < 3; ++a) {
@@ -48,8 +51,19 @@ std::vector<GraspCandidate> topDownGrasps(const ObjectState& target, double pref
       GraspCandidate g;
       g.yaw = wrapAngle(theta + flip + offset);
       g.width = width;
-      const Mat3 Rt = topDownRotation(g.yaw);
-      const Vec3 p(c.x(), c.y(), c.z() + o.depth);
+      Mat3 Rt = topDownRotation(g.yaw);
+      Vec3 p(c.x(), c.y(), c.z() + o.depth);
+      if (!upright) {
+        // Tilted: the TCP's z into the upper face, the fingers closing along the object's axis
+        // (turned by the offset about the face normal), as topDownRotation does for an upright one.
+        const Vec3 y = Eigen::AngleAxisd(offset, normal) * ((flip > 0 ? 1.0 : -1.0) * axis);
+        const Vec3 z = -normal;
+        Rt.col(0) = y.cross(z);
+        Rt.col(1) = y;
+        Rt.col(2) = z;
+        p = c + o.depth * normal;
+        g.approach = normal;
+      }
       g.T_world_tcp = makePose(p, Rt);
       // Clearance: the open fingertips' outer points to the nearest neighbour.
       const Vec3 y = Rt.col(1);

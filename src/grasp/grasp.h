@@ -30,12 +30,15 @@ struct GraspCandidate {
   double width = 0;  ///< [m] object width across the fingers
   double clearance = 0;  ///< [m] to the nearest neighbour along the finger direction
   double score = 0;
+  Vec3 approach = Vec3::UnitZ();  ///< from the grasp towards the pre-grasp (straight up, or the tilted top face's normal)
 };
 
 /// Candidates for `target`, best first: for each pair of vertical faces, both finger
 /// orientations, at each sampled yaw offset. `preferred_yaw` is the TCP yaw needing no wrist rotation;
 /// `neighbours` are the other objects and obstacles the open fingers should keep clear of.
-/// An object that is not upright (tilted over 15 degrees) or too wide gives no candidate.
+/// An object tilted 15 to 50 degrees (leaning on a neighbour or a wall) is grasped across its
+/// upper face's sides, approached along that face's normal; one tilted more, or too wide, gives no
+/// candidate.
 std::vector<GraspCandidate> topDownGrasps(const ObjectState& target, double preferred_yaw,
                                           const std::vector<Obstacle>& neighbours, const GraspOptions& options);
 

@@ -5,12 +5,25 @@
 namespace mm {
 
 void SpawnOptions::declare(ConfigArchive& a) {
-  a.value("count_min", count_min, {1, 6}, "", "fewest objects in the bin");
-  a.value("count_max", count_max, {1, 6}, "", "most objects in the bin (the scene holds 6)");
+  a.value("count_min", count_min, {1, 100}, "", "fewest objects in the bin");
+  a.value("count_max", count_max, {1, 100}, "", "most objects in the bin (at most the scene's pool: object_0, object_1, ...)");
   a.value("wall_margin", wall_margin, {0.0, 0.1}, "m", "object centers keep this far from the bin walls");
   a.value("min_spacing", min_spacing, {0.05, 0.3}, "m", "least distance between object centers");
   a.value("settle_time", settle_time, {0.0, 5.0}, "s", "simulated settling after spawning");
+  a.value("drop", drop,
+         "drop the objects into the bin from above in random orientations (layers of three, wall_margin from the walls), "
+         "so that they touch, lean and stack; false: upright, min_spacing apart");
 }
+
+namespace {
+
+// A rotation drawn uniformly (a normalized 4-D Gaussian is a uniform unit quaternion).
+Mat3 uniformRotation(Rng& rng) {
+  Eigen::Quaterniond q(rng.normal(), rng.normal(), rng.normal(), rng.normal());
+  return q.normalized().toRotationMatrix();
+}
+
+}  // namespace
 
 SpawnResult spawnObjects(SimWorld& w, const RobotModel& robot, const Pose& T_region, const Vec3& half, Rng& rng,
                          const SpawnOptions& o) {
@@ -24,8 +37,29 @@ SpawnResult spawnObjects(SimWorld& w, const RobotModel& robot, const Pose& T_reg
     r.active.clear();
     std::vector<Vec3> centers;
     bool placed_all = true;
+    const bool drop = o.drop && o.physics;
     for (int i = 0; i < count && placed_all; ++i) {
       bool placed = false;
+      if (drop) {
+        // Layers of three, 7 cm apart in height, each object clear of the others in its layer.
+        const ObjectState proto = w.object(i);
+        const double reach = proto.half_size.norm();
+        for (int draw = 0; draw < 200 && !placed; ++draw) {
+          Vec3 p = T_region * Vec3(rng.uniform(-half.x() + o.wall_margin, half.x() - o.wall_margin),
+                                   rng.uniform(-half.y() + o.wall_margin, half.y() - o.wall_margin), 0.0);
+          p.z() = surface + reach + 0.01 + 0.07 * (i / 3);
+          const Mat3 R = uniformRotation(rng);
+          bool clear = true;
+          for (const Vec3& c : centers) clear = clear && (c - p).norm() >= 2 * reach + 0.002;
+          if (!clear) continue;
+          w.setObjectPose(i, makePose(p, R));
+          centers.push_back(p);
+          r.active.push_back(i);
+          placed = true;
+        }
+        placed_all = placed;
+        continue;
+      }
       for (int draw = 0; draw < 200 && !placed; ++draw) {
         const Vec3 local(rng.uniform(-half.x() + o.wall_margin, half.x() - o.wall_margin),
                          rng.uniform(-half.y() + o.wall_margin, half.y() - o.wall_margin), 0.0);
@@ -69,6 +103,14 @@ SpawnResult spawnObjects(SimWorld& w, const RobotModel& robot, const Pose& T_reg
     for (int i : r.active) {
       const ObjectState s = w.object(i);
       const Vec3 local = T_region.inverse() * s.T_world_object.translation();
+      if (drop) {  // any orientation, inside the bin's walls, at rest
+        if (w.objectPenetration(i) > o.max_penetration || std::abs(local.x()) > half.x() || std::abs(local.y()) > half.y() ||
+            w.objectVelocity(i).norm() > 0.02) {
+          bad = true;
+          r.reason = "object " + s.name + " did not come to rest in the bin";
+        }
+        continue;
+      }
       if (w.objectPenetration(i) > o.max_penetration || s.T_world_object.linear().col(2).z() < 0.95 ||
           std::abs(local.x()) > half.x() || std::abs(local.y()) > half.y() || w.objectVelocity(i).norm() > 0.02) {
         bad = true;

@@ -1,6 +1,8 @@
 // Seeded object placement: 1..N objects in the bin region without overlap, settled by the physics
 // (MuJoCo hardware) or set at rest (mock). A spawn that interpenetrates, tips over or leaves the
-// bin is rejected and resampled from the same stream.
+// bin is rejected and resampled from the same stream. Or, dropped (`drop`): the objects fall into
+// the bin from above in random orientations, in layers, and settle touching, leaning and stacked;
+// a drop is rejected when an object comes to rest outside the bin or still moving.
 #pragma once
 #include <string>
 #include <vector>
@@ -12,9 +14,10 @@
 namespace mm {
 
 struct SpawnOptions {
-  /// Keys count_min, count_max, wall_margin, min_spacing, settle_time (section "objects").
+  /// Keys count_min, count_max, wall_margin, min_spacing, settle_time, drop (section "objects").
   void declare(ConfigArchive& a);
   int count_min = 1, count_max = 3;
+  bool drop = false;           ///< dropped from above in random orientations (physics only; mock: placed as without)
   double wall_margin = 0.07;   ///< [m] object centers keep this far from the region's edges
   double min_spacing = 0.11;   ///< [m] between object centers
   double settle_time = 0.3;    ///< [s] simulated settling (physics only)

@@ -471,12 +471,22 @@ struct GraspCheckers {
   std::unique_ptr<CollisionChecker> full, no_target;
 };
 
-GraspCheckers graspCheckers(const TrialContext& ctx, const ObjectState& object) {
+// `margin`: the fingers open this much wider than the object; the tight pass (margin below
+// finger_margin) also checks with that padding.
+GraspCheckers graspCheckers(const TrialContext& ctx, const ObjectState& object, double margin) {
   const TaskOptions& o = ctx.options;
   PlanningScene full_scene = planningScene(ctx, -1, false), approach_scene = planningScene(ctx, object.index, false);
   const double widest = 2 * std::max(object.half_size.x(), object.half_size.y());
-  full_scene.finger_opening = approach_scene.finger_opening = std::min(ctx.robot.spec().gripper.travel, widest / 2 + o.finger_margin);
-  return {makeChecker(o.checker, ctx.robot, full_scene, o.padding), makeChecker(o.checker, ctx.robot, approach_scene, o.padding)};
+  full_scene.finger_opening = approach_scene.finger_opening = std::min(ctx.robot.spec().gripper.travel, widest / 2 + margin);
+  const double padding = margin < o.finger_margin ? std::min(o.padding, margin) : o.padding;
+  return {makeChecker(o.checker, ctx.robot, full_scene, padding), makeChecker(o.checker, ctx.robot, approach_scene, padding)};
+}
+
+// The finger margins to try in turn: the configured one, then the tight one in clutter.
+std::vector<double> graspMargins(const TaskOptions& o) {
+  std::vector<double> m{o.finger_margin};
+  if (o.tight_margin > 0 && o.tight_margin < o.finger_margin) m.push_back(o.tight_margin);
+  return m;
 }
 
 Failure tryGrasp(TrialContext& ctx, const ObjectState& object, const GraspCandidate& g, GraspCheckers& checkers,
@@ -484,7 +494,7 @@ Failure tryGrasp(TrialContext& ctx, const ObjectState& object, const GraspCandid
   const TaskOptions& o = ctx.options;
   const Pose& T_grasp = g.T_world_tcp;
   Pose T_pre = T_grasp;
-  T_pre.translation().z() += approach_distance;
+  T_pre.translation() += approach_distance * g.approach;
   const IkResult pre = ikFar(ctx, T_pre, ctx.robot.home(), rng);
   if (!pre.ok()) return {"grasp_pose_ik", FailureKind::kIk, "pre-grasp: " + pre.reason};
   if (!checkers.full->isValid(pre.q()))
@@ -518,13 +528,15 @@ bool graspable(TrialContext& ctx, const ObjectState& object) {
   // planning exactly as it would be without it.
   Rng rng = ctx.rng_ik;
   const auto candidates = graspCandidates(ctx, object);
-  GraspCheckers checkers = graspCheckers(ctx, object);
   long checks = 0;
-  int tried = 0;
-  for (const GraspCandidate& g : candidates) {
-    if (tried++ >= ctx.options.max_grasp_candidates) break;
-    GraspSolution s;
-    if (tryGrasp(ctx, object, g, checkers, ctx.options.approach_distance, rng, s, checks).ok()) return true;
+  for (double margin : graspMargins(ctx.options)) {
+    GraspCheckers checkers = graspCheckers(ctx, object, margin);
+    int tried = 0;
+    for (const GraspCandidate& g : candidates) {
+      if (tried++ >= ctx.options.max_grasp_candidates) break;
+      GraspSolution s;
+      if (tryGrasp(ctx, object, g, checkers, ctx.options.approach_distance, rng, s, checks).ok()) return true;
+    }
   }
   return false;
 }
@@ -545,32 +557,36 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
   };
   if (candidates.empty())
     return done({"grasp_pose_ik", FailureKind::kNoGrasp, "no top-down grasp for this object (tilted or too wide)"});
-  GraspCheckers checkers = graspCheckers(ctx, object);
   Failure last{"grasp_pose_ik", FailureKind::kNoGrasp, "every grasp candidate failed before in this trial"};
-  int tried = 0;
   bool found = false;
-  for (size_t c = first; c < candidates.size() && tried < o.max_grasp_candidates; ++c) {
-    const GraspCandidate& g = candidates[c];
-    const bool failed_before = std::any_of(ctx.failed_grasps.begin(), ctx.failed_grasps.end(), [&](const Pose& T) {
-      return (T.translation() - g.T_world_tcp.translation()).norm() < 1e-3 &&
-             angleBetween(T.linear(), g.T_world_tcp.linear()) < 1e-2;
-    });
-    if (failed_before) continue;
-    ++tried;
-    ++ctx.out.grasp_candidates_tried;
-    last = tryGrasp(ctx, object, g, checkers, approach_distance, ctx.rng_ik, out, ctx.out.collision_checks);
-    if (!last.ok()) continue;
-    found = true;
-    out.object = object;
-    out.candidate = g;
-    out.candidate_index = static_cast<int>(c);
-    out.candidates_tried = tried;
-    out.approach_distance = approach_distance;
-    ctx.out.grasp_opening = g.width / 2;
-    out.pre_opening = std::min(travel, g.width / 2 + o.finger_margin);
-    break;
+  for (double margin : graspMargins(o)) {
+    GraspCheckers checkers = graspCheckers(ctx, object, margin);
+    int tried = 0;
+    for (size_t c = first; c < candidates.size() && tried < o.max_grasp_candidates; ++c) {
+      const GraspCandidate& g = candidates[c];
+      const bool failed_before = std::any_of(ctx.failed_grasps.begin(), ctx.failed_grasps.end(), [&](const Pose& T) {
+        return (T.translation() - g.T_world_tcp.translation()).norm() < 1e-3 &&
+               angleBetween(T.linear(), g.T_world_tcp.linear()) < 1e-2;
+      });
+      if (failed_before) continue;
+      ++tried;
+      ++ctx.out.grasp_candidates_tried;
+      last = tryGrasp(ctx, object, g, checkers, approach_distance, ctx.rng_ik, out, ctx.out.collision_checks);
+      if (!last.ok()) continue;
+      found = true;
+      out.object = object;
+      out.candidate = g;
+      out.candidate_index = static_cast<int>(c);
+      out.candidates_tried = tried;
+      out.approach_distance = approach_distance;
+      out.finger_margin = margin;
+      ctx.out.grasp_opening = g.width / 2;
+      out.pre_opening = std::min(travel, g.width / 2 + margin);
+      break;
+    }
+    ctx.out.collision_checks += checkers.full->checks() + checkers.no_target->checks();
+    if (found) break;
   }
-  ctx.out.collision_checks += checkers.full->checks() + checkers.no_target->checks();
   if (!found) {
     last.reason += " (after " + std::to_string(ctx.out.grasp_candidates_tried) + " grasp candidates)";
     return done(last);
@@ -590,8 +606,9 @@ Failure planPick(TrialContext& ctx, const GraspSolution& g, Plan& out) {
   };
   PlanningScene full_scene = planningScene(ctx, -1, false);
   const double widest = 2 * std::max(g.object.half_size.x(), g.object.half_size.y());
-  full_scene.finger_opening = std::min(travel, widest / 2 + o.finger_margin);
-  auto full = makeChecker(o.checker, ctx.robot, full_scene, o.padding);
+  const double margin = g.finger_margin > 0 ? g.finger_margin : o.finger_margin;
+  full_scene.finger_opening = std::min(travel, widest / 2 + margin);
+  auto full = makeChecker(o.checker, ctx.robot, full_scene, margin < o.finger_margin ? std::min(o.padding, margin) : o.padding);
   JointTrajectory t_connect;
   const Failure f = connect(ctx, "connect_pregrasp", *full, full_scene, ctx.q_rest, g.q_pre, t_connect);
   ctx.out.collision_checks += full->checks();
@@ -671,6 +688,7 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   bool found = false;
   VecX q_preplace;
   CartesianPath descend, retreat;
+  double release_opening = travel;
   for (const auto& [cost, T_place] : options) {
     Pose T_pre = T_place;
     T_pre.translation().z() += o.approach_distance;
@@ -689,13 +707,20 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
       continue;
     }
     // Retreat: fingers open, the placed object left behind (between the fingers, not checked).
-    PlanningScene rs = planningScene(ctx, ctx.held, false);
-    rs.finger_opening = travel;
-    auto retreating = makeChecker(o.checker, ctx.robot, rs, o.padding);
+    // Fully open; or, beside objects placed before, only just letting go (tight_margin wider
+    // than the object, else finger_margin).
     Pose T_up = T_place;
     T_up.translation().z() += o.retreat_distance;
-    retreat = planCartesianLine(ctx.robot, *retreating, descend.waypoints.back(), T_up, ikNear(ctx), o.cartesian);
-    ctx.out.collision_checks += retreating->checks();
+    const double let_go = o.tight_margin > 0 ? std::min(o.tight_margin, o.finger_margin) : o.finger_margin;
+    for (double opening : {travel, std::min(travel, ctx.out.grasp_opening + let_go)}) {
+      PlanningScene rs = planningScene(ctx, ctx.held, false);
+      rs.finger_opening = opening;
+      auto retreating = makeChecker(o.checker, ctx.robot, rs, o.padding);
+      retreat = planCartesianLine(ctx.robot, *retreating, descend.waypoints.back(), T_up, ikNear(ctx), o.cartesian);
+      ctx.out.collision_checks += retreating->checks();
+      release_opening = opening;
+      if (retreat.ok) break;
+    }
     if (!retreat.ok) {
       last = {"retreat", retreat.kind, retreat.reason};
       continue;
@@ -735,11 +760,11 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   out.T_world_target = T_world_object;
   out.places = true;
   if (release) {
-    PlanStep open = gripperStep("open_gripper_release", descend.waypoints.back(), travel);
+    PlanStep open = gripperStep("open_gripper_release", descend.waypoints.back(), release_opening);
     open.release = true;
     out.steps.push_back(open);
     out.steps.push_back(markerStep("detach", PlanStep::Kind::kMarker));
-    out.steps.push_back(trajectoryStep("retreat", std::move(t_retreat), travel, false));
+    out.steps.push_back(trajectoryStep("retreat", std::move(t_retreat), release_opening, false));
     out.q_end = retreat.waypoints.back();
   }
   if (ctx.faults) ctx.faults->onPlanned(ctx, out);

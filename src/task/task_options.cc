@@ -14,6 +14,9 @@ void TaskOptions::declare(ConfigArchive& a) {
   a.value("max_candidates", max_grasp_candidates, {1, 64}, "", "grasp candidates tried per object before the pick fails");
   a.value("finger_margin", finger_margin, {0.002, 0.04}, "m",
           "fingers open this much wider than the object's half width before the approach");
+  a.value("tight_margin", tight_margin, {0.0, 0.04}, "m",
+          "in clutter, when no grasp fits with finger_margin and planning.padding: the fingers open only this much wider than "
+          "the object and the approach is checked with this padding (0: never)");
   grasp.declare(a);
   a.leave();
 

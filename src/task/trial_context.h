@@ -104,6 +104,7 @@ struct GraspSolution {
   CartesianPath approach, lift;
   Pose T_tcp_object = Pose::Identity();
   double pre_opening = 0.04;  ///< [m] per finger before the approach
+  double finger_margin = 0;   ///< [m] the margin it was found with (TaskOptions finger_margin or tight_margin)
 };
 
 class TrialContext {

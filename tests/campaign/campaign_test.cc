@@ -106,6 +106,38 @@ TEST(Campaign, ShortMujocoCampaignSucceedsAndMeasures) {
   }
 }
 
+// The clearing tree picks until the bin is empty, or until target_count objects are placed.
+TEST(Campaign, ClearingEmptiesTheBinOrStopsAtTheCount) {
+  TempDir d;
+  const std::string common = " --trials 1 --set objects.drop=false --set objects.count_min=3 --set objects.count_max=3 "
+                             "--set objects.wall_margin=0.07 --set objects.settle_time=0.3 --set progress=none --out ";
+  const RunResult all = runMinimanip("run experiments/bin_clearing.yaml" + common + (d.path() / "all").string());
+  ASSERT_EQ(all.code, 0) << all.out;
+  const json a = readTrials(d.path() / "all").at(0);
+  EXPECT_TRUE(a["success"].get<bool>()) << a.dump();
+  EXPECT_EQ(a["objects_placed"], 3);
+  EXPECT_EQ(a["objects_left_in_bin"], 0);
+  EXPECT_EQ(a["reported_total"], 3);
+  EXPECT_EQ(a["collision_count"], 0);
+
+  std::string tree;
+  {
+    std::ifstream in("experiments/trees/bin_clearing.xml");
+    tree.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const std::string ten = "output_key=\"target_count\" value=\"10\"";
+  ASSERT_NE(tree.find(ten), std::string::npos);
+  tree.replace(tree.find(ten), ten.size(), "output_key=\"target_count\" value=\"2\"");
+  const std::string two = d.file("two.xml", tree);
+  const RunResult some = runMinimanip("run experiments/bin_clearing.yaml --set tree=" + two + common + (d.path() / "two").string());
+  ASSERT_EQ(some.code, 0) << some.out;
+  const json t = readTrials(d.path() / "two").at(0);
+  EXPECT_TRUE(t["success"].get<bool>()) << t.dump();
+  EXPECT_EQ(t["objects_placed"], 2);
+  EXPECT_EQ(t["objects_left_in_bin"], 1);
+  EXPECT_EQ(t["reported_total"], 2);
+}
+
 TEST(Campaign, WeldModeSucceeds) {
   TempDir d;
   const RunResult r = runMinimanip("run experiments/quickstart.yaml --trials 2 --set grasp.mode=weld --set progress=none --out " +
