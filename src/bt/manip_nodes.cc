@@ -122,6 +122,19 @@ class PlanAndExecutePick final : public MotionAction {
   }
 };
 
+class PushObject final : public MotionAction {
+ public:
+  using MotionAction::MotionAction;
+  static PortsList providedPorts() { return {inputPort<Pose>("object_pose", "the detected object to push (DetectObject's output)")}; }
+
+ protected:
+  Failure plan(TrialContext& c, Plan& out) override {
+    const int i = perceivedObjectAt(c, getInput<Pose>("object_pose").value());
+    if (i < 0) return c.fail({"plan_push", FailureKind::kPrecondition, "no detected object within 5 cm of object_pose"});
+    return planPush(c, c.objects[i], out);
+  }
+};
+
 class PlanAndExecutePlace final : public MotionAction {
  public:
   using MotionAction::MotionAction;
@@ -506,6 +519,18 @@ class IsBinNotEmpty final : public TaskCondition {
   NodeStatus tick() override { return objectsInBin(ctx()) > 0 ? NodeStatus::kSuccess : NodeStatus::kFailure; }
 };
 
+class IsGraspable final : public TaskCondition {
+ public:
+  using TaskCondition::TaskCondition;
+  static PortsList providedPorts() { return {inputPort<Pose>("object_pose", "a detected object (DetectObject's output)")}; }
+
+ protected:
+  NodeStatus tick() override {
+    const int i = perceivedObjectAt(ctx(), getInput<Pose>("object_pose").value());
+    return i >= 0 && graspable(ctx(), ctx().objects[i]) ? NodeStatus::kSuccess : NodeStatus::kFailure;
+  }
+};
+
 class IsLessThan final : public TaskCondition {
  public:
   using TaskCondition::TaskCondition;
@@ -554,6 +579,14 @@ void registerTaskNodes(Factory& f, TaskNodeEnv& env) {
   add<IsBinNotEmpty>(f, env, "IsBinNotEmpty",
                      "SUCCESS while an object rests in the bin as the bin's sensor sees it (over the bin floor, less than 10 cm "
                      "above it); the object in the hand does not count, nor one lifted out.");
+  add<IsGraspable>(f, env, "IsGraspable",
+                   "SUCCESS when the detected object at object_pose has a grasp that passes every check now (IK, collision, "
+                   "approach, lift); FAILURE otherwise (flush against a neighbour or a wall: PushObject it).");
+  add<PushObject>(f, env, "PushObject",
+                  "Pushes the detected object at object_pose (else the next object by room that can be) motion.push_distance "
+                  "with the closed fingers: down beside it, along a face normal towards room inside the walls (a neighbour "
+                  "in the way is pushed along if it has room), up; at a high joint impedance. RUNNING while the "
+                  "arm moves; FAILURE when no direction has room. Perceive again afterwards: the object has moved.");
   add<IsLessThan>(f, env, "IsLessThan", "SUCCESS when key_A < key_B (integers).");
   add<TriggerPointCloud>(f, env, "TriggerPointCloud", "Perceives the bin (as DetectObject, without choosing an object).");
   add<WaitForGraspCandidates>(f, env, "WaitForGraspCandidates",

@@ -36,6 +36,7 @@ void TrialRecord::describe(RecordArchive& a) {
   a.field("spawn_attempts", spawn_attempts, "", "spawns drawn until one settled cleanly");
   a.field("target_object", o.target_object, "", "the first object picked (scene pool index)");
   a.field("grasp_candidates_tried", o.grasp_candidates_tried, "", "grasp candidates filtered, all picks");
+  a.field("pushes", o.pushes, "", "pushes planned to move an object no grasp fits (PushObject)");
   a.field("grasp_opening", o.grasp_opening, "m", "per finger after the last close");
   a.object("cycle", [&](RecordArchive& c) {
     c.field("perception_time", o.perception_time, "s", "compute wall time of perception");

@@ -61,6 +61,7 @@ class MujocoHardware final : public HardwareBase {
  private:
   VecX q_ref_, qd_ref_;
   void attach(int i, bool on) override { w_.setWeld(i, on); }
+  void setStiff(bool on) override { w_.setStiff(on); }
 };
 
 // Joints follow commands exactly; the fingers move at their speed limit and stop on an object;
@@ -73,6 +74,7 @@ class MockHardware final : public HardwareBase {
   double gripperForce() const override { return held_ >= 0 ? grip_force_ : 0.0; }
   Vec3 objectVelocity(int i) const override { return i == held_ ? held_velocity_ : Vec3::Zero(); }
   void attach(int, bool) override {}  // a held object already moves with the hand
+  void setStiff(bool) override {}     // joints follow commands exactly
 
   void step() override {
     const Pose T_before = w_.tcpPose();

@@ -36,6 +36,8 @@ class Hardware {
 
   /// Weld-on-grasp (the source's attach plugin): fix object i to the hand, or release it.
   virtual void attach(int i, bool on) = 0;
+  /// A high joint impedance for a contact task (a push) on or off.
+  virtual void setStiff(bool on) = 0;
 
   /// Ground truth, used by the ground-truth perception mode and by the evaluation.
   virtual std::vector<ObjectState> objects() const = 0;
@@ -69,6 +71,7 @@ class ForwardingHardware : public Hardware {
   void writeGripper(double opening, double max_force) override { in_.writeGripper(opening, max_force); }
   void step() override { in_.step(); }
   void attach(int i, bool on) override { in_.attach(i, on); }
+  void setStiff(bool on) override { in_.setStiff(on); }
   std::vector<ObjectState> objects() const override { return in_.objects(); }
   ObjectState object(int i) const override { return in_.object(i); }
   Vec3 objectVelocity(int i) const override { return in_.objectVelocity(i); }

@@ -56,6 +56,7 @@ struct SimWorld::Impl {
   std::vector<char> robot_geom, static_geom, foreign_geom;
   int robot_root = -1;
   ServoGains gains;
+  bool stiff = false;
   double finger_ramp[2] = {0, 0};
   double finger_vmax = 0.2;
   // monitors
@@ -204,8 +205,11 @@ std::unique_ptr<SimWorld> SimWorld::load(const std::string& scene_xml, const Rob
   return w;
 }
 
+void SimWorld::setStiff(bool on) { impl_->stiff = on; }
+
 void SimWorld::reset(const VecX& q_arm) {
   Impl& I = *impl_;
+  I.stiff = false;
   mj_resetData(I.m, I.d);
   for (size_t k = 0; k < I.obj_weld.size(); ++k)
     if (I.obj_weld[k] >= 0) I.m->eq_active[I.obj_weld[k]] = 0;
@@ -361,10 +365,11 @@ void SimWorld::stepServo(const VecX& q, const VecX& qd, const VecX& qdd, double 
   mj_step1(m, d);  // positions, velocities, inertia and bias forces at the current state
   // Computed torque: tau = M (qdd + kp e + kd edot) + bias - passive (joint damping), arm rows.
   std::fill(I.scratch_a.begin(), I.scratch_a.end(), 0.0);
+  const double kp = I.stiff ? I.gains.stiff_kp : I.gains.kp, kd = I.stiff ? I.gains.stiff_kd : I.gains.kd;
   for (int i = 0; i < I.dof; ++i) {
     const double e = q[i] - d->qpos[I.arm_qpos[i]];
     const double ed = qd[i] - d->qvel[I.arm_dof[i]];
-    I.scratch_a[I.arm_dof[i]] = qdd[i] + I.gains.kp * e + I.gains.kd * ed;
+    I.scratch_a[I.arm_dof[i]] = qdd[i] + kp * e + kd * ed;
   }
   mj_mulM(m, d, I.scratch_b.data(), I.scratch_a.data());
   for (int i = 0; i < I.dof; ++i) {

@@ -15,6 +15,12 @@ namespace mm {
 struct ServoGains {
   double kp = 400.0;   ///< [1/s^2] joint position gain of the computed-torque servo
   double kd = 40.0;    ///< [1/s] joint velocity gain
+  // Contact tasks (a push): ten times the stiffness, critically damped. A computed-torque servo's
+  // stiffness against an external force is M kp, small at the wrist: at kp = 400/s^2 the ~1 N of a
+  // pushed cube's friction moves the wrist by 0.05 rad, the protective stop's limit. A real arm is
+  // switched to a high joint impedance for such a task (as Franka's setJointImpedance).
+  double stiff_kp = 4000.0;  ///< [1/s^2]
+  double stiff_kd = 126.0;   ///< [1/s]
   // The finger PD runs explicitly at the 2 ms step on ~0.025 kg (finger + armature): stable needs
   // kd dt / m < 2 and kp dt^2 / m well under 1 (here 0.64 and 0.32); higher gains limit-cycle.
   double finger_kp = 2000.0;  ///< [N/m]
@@ -104,6 +110,8 @@ class SimWorld {
   const std::string& instabilityReason() const;
 
   const ServoGains& gains() const;
+  /// The stiff gains (ServoGains::stiff_kp/kd) on or off; off after reset().
+  void setStiff(bool on);
 
  private:
   SimWorld();

@@ -52,6 +52,11 @@ Failure planPick(TrialContext& ctx, const GraspSolution& grasp, Plan& out);
 Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, Plan& out);
 /// Home from where the arm rests. Records "plan_home".
 Failure planHome(TrialContext& ctx, Plan& out);
+/// A push that moves `object` (one no grasp fits: flush against a neighbour or a wall) clear:
+/// the closed fingers go down beside it, push it motion.push_distance horizontally along one of
+/// its face normals (towards free room in the bin, inside the walls, away from the other
+/// objects), and go up. Records "plan_push"; FAILURE when no direction has room.
+Failure planPush(TrialContext& ctx, const ObjectState& object, Plan& out);
 /// A straight retreat of `distance` [m] up from where the arm rests, checked without padding (the
 /// way out of a spot where the hand touches). Records "plan_safe".
 Failure planRetreatUp(TrialContext& ctx, double distance, Plan& out);

@@ -24,6 +24,8 @@ void TaskOptions::declare(ConfigArchive& a) {
   a.value("approach_distance", approach_distance, {0.02, 0.3}, "m", "pre-grasp and pre-place height above the grasp and place poses");
   a.value("lift_height", lift_height, {0.02, 0.4}, "m", "straight lift after the grasp");
   a.value("retreat_distance", retreat_distance, {0.02, 0.3}, "m", "straight retreat after the release (and MoveToSafe's)");
+  a.value("push_distance", push_distance, {0.01, 0.2}, "m",
+          "how far PushObject moves an object no grasp fits (closed fingers, along a face normal, towards free room)");
   a.value("place_clearance", place_clearance, {0.0, 0.05}, "m", "object bottom above the tray at the release");
   a.value("path_tolerance", path_tolerance, {0.001, 1.0}, "rad",
           "a joint this far from its setpoint stops the motion (the controller's protective stop, as ros2_control's JTC)");

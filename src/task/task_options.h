@@ -29,6 +29,7 @@ struct TaskOptions {
   double lift_height = 0.15;             ///< [m]
   double place_clearance = 0.005;        ///< [m] object bottom above the surface at release
   double retreat_distance = 0.10;        ///< [m]
+  double push_distance = 0.05;           ///< [m] how far a push moves an object
   double grasp_force = 40.0;             ///< [N] per finger
   double finger_margin = 0.012;          ///< [m] per finger beyond the object's half width when open
   double tight_margin = 0.004;           ///< [m] finger margin and approach padding when nothing fits otherwise (0: never)

@@ -41,6 +41,7 @@ struct PlanStep {
   bool release = false;         ///< kGripper: lets go of the held object (weld off first)
   double expected_opening = -1; ///< kGripper closing on an object: its half width across the fingers [m]
   bool take_hold = false;       ///< kGripper closing: a perceived object left between the fingers becomes the held one
+  bool stiff = false;           ///< kTrajectory: a contact task (a push): high joint impedance (Hardware::setStiff)
 };
 
 /// What a trial's compute and execution times are booked under (the source's breakdown).

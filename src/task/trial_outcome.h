@@ -64,6 +64,7 @@ struct TrialOutcome {
   int objects_in_bin = 0;       ///< detected at the first perception
   int objects_left_in_bin = 0;  ///< at the end
   int grasp_candidates_tried = 0;
+  int pushes = 0;  ///< pushes executed to make room for a grasp
   // The source's time breakdown (compute stages in wall time, execution in simulated time).
   double perception_time = 0, plan_pick_time = 0, execute_pick_time = 0, plan_place_time = 0,
          execute_place_time = 0, return_home_time = 0, total_time = 0;

@@ -40,7 +40,8 @@ struct Result {
 };
 
 // One trial of the quickstart cell with `tree` (a file under experiments/trees/ or inline XML).
-Result runTree(const std::string& tree, std::vector<std::string> sets, uint64_t trial) {
+// `moved`, when given: how far each object in play moved on the table (xy) during the trial.
+Result runTree(const std::string& tree, std::vector<std::string> sets, uint64_t trial, std::vector<double>* moved = nullptr) {
   const bool file = tree.find('<') == std::string::npos;
   if (file) sets.push_back("tree=experiments/trees/" + tree);
   const Experiment e = loadExperiment("experiments/quickstart.yaml", sets);
@@ -60,9 +61,16 @@ Result runTree(const std::string& tree, std::vector<std::string> sets, uint64_t 
   auto backend = e.hardware == "mock" ? makeMockHardware(*world, robot, spawn.active)
                                       : makeMujocoHardware(*world, robot, spawn.active);
   RecordingHardware hw(*backend);
+  std::vector<Vec3> start;
+  for (int i : spawn.active) start.push_back(world->object(i).T_world_object.translation());
   Result r;
   std::string log;
   r.out = runner.run(hw, *world, trial, log);
+  if (moved) {
+    moved->clear();
+    for (size_t k = 0; k < spawn.active.size(); ++k)
+      moved->push_back((world->object(spawn.active[k]).T_world_object.translation() - start[k]).head<2>().norm());
+  }
   r.written = std::move(hw.written);
   r.dt = hw.period();
   fs::remove_all(logs);
@@ -365,6 +373,28 @@ TEST(OwnTrees, PlanningAfterAHaltWaitsForTheArmToStopAndPlansFromThere) {
   EXPECT_TRUE(r.out.success) << describe(r.out);
   EXPECT_THAT(r.out.failures, ::testing::Contains(::testing::Field(
                                  &RecordedFailure::failure, ::testing::Field(&Failure::kind, FailureKind::kHalted))));
+}
+
+// PushObject in the simulator: the closed fingers move a cube along a face normal by
+// motion.push_distance (5 cm), without a collision, and the cube can be picked afterwards.
+TEST(TaskTrees, PushObjectMovesACubeAndItIsPickedAfterwards) {
+  const std::string xml = R"(<root BTCPP_format="4" main_tree_to_execute="T"><BehaviorTree ID="T"><Sequence>
+      <DetectObject object_pose="{p}"/>
+      <PushObject object_pose="{p}"/>
+      <MoveToHome/>
+      <DetectObject object_pose="{p}"/>
+      <IsGraspable object_pose="{p}"/>
+      <PlanAndExecutePick object_pose="{p}"/>
+    </Sequence></BehaviorTree></root>)";
+  std::vector<double> moved;
+  const Result r = runTree(xml, withCubes({}, 1), 0, &moved);
+  EXPECT_EQ(r.out.pushes, 1);
+  EXPECT_EQ(r.out.collision_count, 0) << ::testing::PrintToString(r.out.collision_log);
+  EXPECT_EQ(r.out.tree_status, "SUCCESS") << describe(r.out);
+  ASSERT_EQ(moved.size(), 1u);
+  // Pushed 5 cm, then lifted with the pick (15 cm up, but xy stays): moved about 5 cm on the table.
+  EXPECT_GT(moved[0], 0.03) << describe(r.out);
+  EXPECT_LT(moved[0], 0.07) << describe(r.out);
 }
 
 }  // namespace
