@@ -849,7 +849,7 @@ Failure planPushOf(TrialContext& ctx, const ObjectState& object, Plan& out) {
   const Pose& T_crop = ctx.perception.T_world_crop;
   const Vec3 crop_half = ctx.perception.crop_half;
   const double floor_z = T_crop.translation().z();
-  const double margin = o.tight_margin > 0 ? std::min(o.tight_margin, o.padding) : o.padding;
+  const double margin = std::min(o.padding, 0.004);  // a push comes within millimetres of objects by design
   // The object's horizontal extent along d (half).
   auto extent = [&](const Vec3& d) { return (R.transpose() * d).cwiseAbs().dot(object.half_size); };
   // Candidate directions: the horizontal projections of the object's face normals, both ways,

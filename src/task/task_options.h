@@ -32,7 +32,7 @@ struct TaskOptions {
   double push_distance = 0.05;           ///< [m] how far a push moves an object
   double grasp_force = 40.0;             ///< [N] per finger
   double finger_margin = 0.012;          ///< [m] per finger beyond the object's half width when open
-  double tight_margin = 0.004;           ///< [m] finger margin and approach padding when nothing fits otherwise (0: never)
+  double tight_margin = 0.0;             ///< [m] finger margin and approach padding when nothing fits otherwise (0: never; clutter: 0.004)
   bool weld = false;                     ///< weld-on-grasp (attach plugin) instead of friction
   double drop_distance = 0.03;           ///< [m] object this far from its in-hand pose = dropped
   double path_tolerance = 0.05;          ///< [rad] a joint this far from its setpoint stops the motion
