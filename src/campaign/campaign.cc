@@ -1,19 +1,26 @@
 #include "campaign/campaign.h"
 
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
-#include <atomic>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <ctime>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <map>
-#include <mutex>
+#include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -83,8 +90,7 @@ struct Summary {
   std::string json, table;
 };
 
-Summary summarize(const Experiment& e, const std::vector<TrialRecord>& trials, double wall_seconds, const CampaignOptions& co) {
-  CampaignSummary s = summarizeTrials(trials);
+Summary summarize(const Experiment& e, CampaignSummary s, double wall_seconds, long run_now, const CampaignOptions& co) {
   s.experiment = e.name;
   s.experiment_file = e.file;
   s.command = co.command_line;
@@ -92,7 +98,7 @@ Summary summarize(const Experiment& e, const std::vector<TrialRecord>& trials, d
   s.hardware = e.hardware;
   s.tree = e.tree_path;
   s.wall_seconds = wall_seconds;
-  s.trials_per_second = wall_seconds > 0 ? s.trials / wall_seconds : 0.0;
+  s.trials_per_second = wall_seconds > 0 ? run_now / wall_seconds : 0.0;
   s.minimanip = MINIMANIP_VERSION;
   s.mujoco = mujocoVersion();
   s.ompl = omplVersion();
@@ -164,14 +170,17 @@ Summary summarize(const Experiment& e, const std::vector<TrialRecord>& trials, d
 
 class Progress {
  public:
-  Progress(const std::string& mode, long total) : total_(total), t0_(std::chrono::steady_clock::now()) {
+  /// `total` trials in all, `before` of them done by an earlier run (resume).
+  Progress(const std::string& mode, long total, long before)
+      : total_(total), before_(before), t0_(std::chrono::steady_clock::now()) {
     bar_ = mode == "bar" || (mode == "auto" && isatty(STDERR_FILENO));
     quiet_ = mode == "none";
   }
   void update(long done, long ok, uint64_t trial, const TrialOutcome& o) {
     if (quiet_) return;
     const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
-    const double eta = done ? el / done * (total_ - done) : 0;
+    const long now = done - before_;  // this run's pace
+    const double eta = now > 0 ? el / now * (total_ - done) : 0;
     char buf[256];
     if (bar_) {
       const int w = 30, fill = static_cast<int>(w * done / std::max(total_, 1L));
@@ -188,82 +197,468 @@ class Progress {
   }
 
  private:
-  long total_;
+  long total_, before_;
   std::chrono::steady_clock::time_point t0_;
   bool bar_ = false, quiet_ = false;
 };
 
+
+// ---- what a campaign's results depend on: the resume check ------------------------------------
+
+using json = nlohmann::json;
+
+// FNV-1a, 64 bits: a change detector for input files (not a cryptographic hash).
+std::string digest(const std::string& bytes) {
+  uint64_t h = 1469598103934665603ull;
+  for (const unsigned char c : bytes) h = (h ^ c) * 1099511628211ull;
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return buf;
+}
+
+std::string fileDigest(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return digest(s.str());
+}
+
+// Keys that change how a campaign runs, not what its trials do.
+bool runOnlyKey(const std::string& key) {
+  return key == "trials" || key == "only" || key == "jobs" || key == "progress" || key == "watchdog";
+}
+
+/// Every key's value as used; the robot, scene and tree by their files' contents.
+json fingerprintOf(const Experiment& e) {
+  json f = json::object();
+  for (const ParamDecl& d : e.params.decls()) {
+    if (runOnlyKey(d.key)) continue;
+    f[d.key] = e.params.getString(d.key);
+  }
+  f["robot"] = "contents " + fileDigest(e.robot_path);
+  f["scene"] = "contents " + fileDigest(e.scene_path);
+  f["tree"] = "contents " + fileDigest(e.tree_path);
+  return f;
+}
+
+/// What differs between the campaign in a results folder (`there`) and this one, in words.
+std::string differences(const json& there, const json& here) {
+  std::string said;
+  int n = 0;
+  std::set<std::string> keys;
+  for (const auto& [k, v] : there.items()) keys.insert(k);
+  for (const auto& [k, v] : here.items()) keys.insert(k);
+  for (const std::string& k : keys) {
+    const std::string a = there.contains(k) ? there[k].get<std::string>() : "(absent)";
+    const std::string b = here.contains(k) ? here[k].get<std::string>() : "(absent)";
+    if (a == b) continue;
+    if (n++ == 8) {
+      said += "; ...";
+      break;
+    }
+    said += (said.empty() ? "" : "; ") +
+            (a.rfind("contents ", 0) == 0 ? k + " file contents differ" : k + " is " + a + " there, " + b + " here");
+  }
+  return said;
+}
+
+struct ResumeState {
+  bool resumed = false;
+  std::string date;               ///< the campaign's first start (the .db3 files' session date)
+  std::vector<char> done;         ///< by trial index
+  long done_count = 0, ok_count = 0, dropped_lines = 0;
+};
+
+/// Prepares `out` for the campaign: a new one, or the resumption of the same campaign (everything
+/// but the run-only keys equal). Throws InputError before anything is written when the folder holds
+/// another campaign's results. On resume, trials.jsonl keeps its complete records but those of
+/// crashed or hung trials (run again) and loses a half-written last line.
+ResumeState prepareResults(const Experiment& e, const fs::path& out, const json& fingerprint, const std::string& command) {
+  ResumeState st;
+  const fs::path meta = out / "campaign.json", jsonl_path = out / "trials.jsonl";
+  if (fs::exists(meta)) {
+    json there;
+    try {
+      there = json::parse(std::ifstream(meta));
+    } catch (const std::exception& ex) {
+      throw InputError(meta.string(), std::string("not a campaign record (") + ex.what() + "); remove the folder to start over");
+    }
+    const std::string diff = differences(there.value("fingerprint", json::object()), fingerprint);
+    if (!diff.empty())
+      throw InputError(meta.string(), "these results come from another configuration: " + diff +
+                                          ". Resuming needs the same one (the trial count aside): use another --out, "
+                                          "or remove the folder to start over");
+    st.resumed = true;
+    st.date = there.value("date", localDateTime());
+  } else if (fs::exists(jsonl_path) || fs::exists(out / "summary.json")) {
+    throw InputError(out.string(), "holds results but no campaign.json (not made by this version): remove it or use another --out");
+  }
+  fs::create_directories(out);
+  if (e.bt_log != "none") fs::create_directories(out / "bt");
+  if (fs::exists(out / "bt"))
+    for (const auto& f : fs::directory_iterator(out / "bt"))
+      if (f.path().extension() == ".tmp") fs::remove(f.path());  // a worker killed mid-write
+  st.done.assign(static_cast<size_t>(e.trials), 0);
+  if (st.resumed && fs::exists(jsonl_path)) {
+    // Keep the complete, finished records; write them back by temp file + rename when any is dropped.
+    std::ifstream in(jsonl_path, std::ios::binary);
+    const fs::path tmp = out / "trials.jsonl.tmp";
+    std::ofstream kept(tmp, std::ios::binary | std::ios::trunc);
+    std::string line;
+    long number = 0;
+    while (std::getline(in, line)) {
+      ++number;
+      if (in.eof()) {  // no newline: the supervisor died while writing it
+        ++st.dropped_lines;
+        break;
+      }
+      const TrialRecord r = fromJsonLine(line, jsonl_path.string() + ":" + std::to_string(number));
+      if (r.o.failure_kind == FailureKind::kCrash || r.o.failure_kind == FailureKind::kHang) {
+        ++st.dropped_lines;
+        continue;
+      }
+      if (r.trial >= st.done.size()) st.done.resize(r.trial + 1, 0);
+      if (st.done[r.trial]) throw InputError(jsonl_path.string() + ":" + std::to_string(number), "trial " + std::to_string(r.trial) + " is recorded twice");
+      st.done[r.trial] = 1;
+      ++st.done_count;
+      st.ok_count += r.o.success;
+      kept << line << "\n";
+    }
+    kept.close();
+    if (!kept) throw std::runtime_error("cannot write " + tmp.string());
+    if (st.dropped_lines) fs::rename(tmp, jsonl_path);
+    else fs::remove(tmp);
+  } else {
+    st.date = localDateTime();
+    json m = {{"schema", 1}, {"date", st.date}, {"command", command}, {"fingerprint", fingerprint}};
+    writeAtomically(meta, m.dump(2) + "\n");
+  }
+  return st;
+}
+
+// ---- worker processes ------------------------------------------------------------------------
+
+// Supervisor -> worker, one line per trial: "RUN <trial> <attempt>"; end of input: exit.
+// Worker -> supervisor: "READY <fingerprint digest>" once loaded, then per trial its trials.jsonl
+// line, or "ERROR <message>" before it exits on an internal error.
+
+void testFault(const Experiment& e, uint64_t trial, int attempt) {
+  auto has = [&](const std::vector<int64_t>& v) { return std::find(v.begin(), v.end(), static_cast<int64_t>(trial)) != v.end(); };
+  if (has(e.test_faults.segfault) || (attempt == 1 && has(e.test_faults.segfault_once))) {
+    volatile int* null = nullptr;
+    *null = 1;  // a real segmentation fault
+  }
+  if (has(e.test_faults.hang))
+    for (;;) pause();
+}
+
+TrialRecord runOneTrial(const Experiment& e, const RobotModel& robot, const Cell& cell, SimWorld& world, TrialRunner& runner,
+                        uint64_t trial, const fs::path& out) {
+  Rng rng_scene = Rng::stream(e.seed, trial, Purpose::kScene);
+  const SpawnResult spawn = spawnObjects(world, robot, cell.T_world_bin, cell.bin_half, rng_scene, e.spawn);
+  TrialOutcome o;
+  std::string bt_log;
+  if (!spawn.ok) {
+    o.failure_stage = "spawn";
+    o.failure_reason = spawn.reason;
+  } else {
+    auto hw = e.hardware == "mock" ? makeMockHardware(world, robot, spawn.active) : makeMujocoHardware(world, robot, spawn.active);
+    o = runner.run(*hw, world, trial, bt_log);
+  }
+  return makeRecord(e, trial, spawn, std::move(o), bt_log.empty() ? "" : fs::relative(bt_log, out).string());
+}
+
+std::string signalText(int sig) {
+  const char* abbrev = sigabbrev_np(sig);
+  return "signal " + std::to_string(sig) + (abbrev ? std::string(" (SIG") + abbrev + ")" : "");
+}
+
+struct WorkerProcess {
+  pid_t pid = -1;
+  int to = -1, from = -1;  ///< its stdin, its stdout
+  std::string buffer;      ///< output not yet ending in a newline
+  bool ready = false;
+  bool busy = false;
+  uint64_t trial = 0;
+  int attempt = 0;
+  std::chrono::steady_clock::time_point started;
+  bool watchdog_killed = false;
+  double watchdog_limit = 0;
+  std::string error;  ///< its ERROR line, if any
+};
+
+WorkerProcess spawnWorker(const std::string& binary, const std::vector<std::string>& args) {
+  int to[2], from[2];
+  if (pipe2(to, O_CLOEXEC) != 0 || pipe2(from, O_CLOEXEC) != 0) throw std::runtime_error("pipe: " + std::string(std::strerror(errno)));
+  std::vector<char*> argv;
+  argv.push_back(const_cast<char*>(binary.c_str()));
+  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  const pid_t parent = getpid();
+  const pid_t pid = fork();
+  if (pid < 0) throw std::runtime_error("fork: " + std::string(std::strerror(errno)));
+  if (pid == 0) {
+    // The child: async-signal-safe calls only until exec.
+    prctl(PR_SET_PDEATHSIG, SIGKILL);  // dies with the supervisor, even by kill -9
+    if (getppid() != parent) _exit(1);
+    signal(SIGPIPE, SIG_DFL);
+    dup2(to[0], STDIN_FILENO);
+    dup2(from[1], STDOUT_FILENO);
+    execv(binary.c_str(), argv.data());
+    _exit(127);
+  }
+  close(to[0]);
+  close(from[1]);
+  WorkerProcess w;
+  w.pid = pid;
+  w.to = to[1];
+  w.from = from[0];
+  return w;
+}
+
+bool sendLine(int fd, const std::string& line) {
+  const std::string s = line + "\n";
+  size_t off = 0;
+  while (off < s.size()) {
+    const ssize_t n = write(fd, s.data() + off, s.size() - off);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;  // the worker is gone (EPIPE): its end is seen on its output
+    off += static_cast<size_t>(n);
+  }
+  return true;
+}
+
+/// The watchdog's patience: the configured limit, or 10x the median trial when that is more.
+class Watchdog {
+ public:
+  explicit Watchdog(double floor) : floor_(floor) {}
+  void finished(double seconds) {
+    if (recent_.size() < kKeep) recent_.push_back(seconds);
+    else recent_[next_++ % kKeep] = seconds;
+  }
+  double limit() const {
+    if (recent_.empty()) return floor_;
+    std::vector<double> v = recent_;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return std::max(floor_, 10.0 * v[v.size() / 2]);
+  }
+
+ private:
+  static constexpr size_t kKeep = 1001;  // the median of the latest trials, in constant memory
+  double floor_;
+  std::vector<double> recent_;
+  size_t next_ = 0;
+};
+
 }  // namespace
+
+int runWorker(const Experiment& e, const std::string& out_dir) {
+  // Our protocol owns the real stdout; anything else printed goes to stderr.
+  const int protocol = dup(STDOUT_FILENO);
+  dup2(STDERR_FILENO, STDOUT_FILENO);
+  signal(SIGPIPE, SIG_IGN);  // a write to a gone supervisor fails instead
+  FILE* to_supervisor = fdopen(protocol, "w");
+  if (!to_supervisor) return 1;
+  const fs::path out(out_dir);
+  const RobotModel robot = RobotModel::load(e.robot_path);
+  auto world = SimWorld::load(e.scene_path, robot);
+  const Cell cell = makeCell(e, robot, *world);
+  const bt::TreeDocument tree = loadTree(e);
+  const json meta = json::parse(std::ifstream(out / "campaign.json"));
+  TrialRunner runner(e, cell, tree, (out / "bt").string(), meta.at("date").get<std::string>());
+  std::fprintf(to_supervisor, "READY %s\n", digest(fingerprintOf(e).dump()).c_str());
+  std::fflush(to_supervisor);
+  char line[128];
+  while (std::fgets(line, sizeof line, stdin)) {
+    unsigned long trial = 0;
+    int attempt = 0;
+    if (std::sscanf(line, "RUN %lu %d", &trial, &attempt) != 2) return 1;
+    testFault(e, trial, attempt);
+    try {
+      TrialRecord r = runOneTrial(e, robot, cell, *world, runner, trial, out);
+      r.attempts = attempt;
+      const std::string text = toJsonLine(r);
+      std::fputs(text.c_str(), to_supervisor);
+      std::fputc('\n', to_supervisor);
+    } catch (const std::exception& ex) {
+      std::string what = ex.what();
+      std::replace(what.begin(), what.end(), '\n', ' ');
+      std::fprintf(to_supervisor, "ERROR %s\n", what.c_str());
+      std::fflush(to_supervisor);
+      return 1;
+    }
+    if (std::fflush(to_supervisor) != 0) return 1;
+  }
+  return 0;
+}
 
 std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
   // Everything that can be bad input is loaded and checked before anything is written.
-  const RobotModel robot = RobotModel::load(e.robot_path);
-  std::vector<std::unique_ptr<SimWorld>> worlds;
-  for (int k = 0; k < e.jobs; ++k) worlds.push_back(SimWorld::load(e.scene_path, robot));
-  const Cell cell = makeCell(e, robot, *worlds[0]);
-  const bt::TreeDocument tree = loadTree(e);
-
+  {
+    const RobotModel robot = RobotModel::load(e.robot_path);
+    const auto world = SimWorld::load(e.scene_path, robot);
+    makeCell(e, robot, *world);
+    loadTree(e);
+  }
+  const json fingerprint = fingerprintOf(e);
+  const std::string expected_digest = digest(fingerprint.dump());
   const fs::path out(co.out_dir);
-  fs::create_directories(out);
-  for (const char* f : {"trials.jsonl", "summary.json", "config.resolved.yaml"}) fs::remove(out / f);
-  fs::remove_all(out / "bt");
-  if (e.bt_log != "none") fs::create_directories(out / "bt");
-  const std::string date = localDateTime();
+  ResumeState st = prepareResults(e, out, fingerprint, co.command_line);
   writeAtomically(out / "config.resolved.yaml", "# " + co.command_line + "\n" + e.params.toYaml());
-  std::ofstream jsonl(out / "trials.jsonl", std::ios::app);
 
+  std::deque<std::pair<uint64_t, int>> queue;  // trial, attempt
+  std::vector<uint64_t> wanted;
+  for (int64_t t : e.only) wanted.push_back(static_cast<uint64_t>(t));
+  if (wanted.empty())
+    for (int64_t t = 0; t < e.trials; ++t) wanted.push_back(static_cast<uint64_t>(t));
+  for (uint64_t t : wanted)
+    if (t >= st.done.size() || !st.done[t]) queue.emplace_back(t, 1);
+  const long before = e.only.empty() ? st.done_count : static_cast<long>(wanted.size() - queue.size());
+  const long run_now = static_cast<long>(queue.size());
+
+  const std::string binary = co.worker_binary.empty() ? fs::read_symlink("/proc/self/exe").string() : co.worker_binary;
+  std::vector<std::string> args = {"worker", e.file, "--out", out.string()};
+  for (const std::string& s : e.sets) args.insert(args.end(), {"--set", s});
+
+  struct sigaction ignore {};
+  ignore.sa_handler = SIG_IGN;
+  struct sigaction old_pipe {};
+  sigaction(SIGPIPE, &ignore, &old_pipe);  // a worker that died is seen on its output, not by a signal
+
+  std::ofstream jsonl(out / "trials.jsonl", std::ios::app | std::ios::binary);
+  Progress progress(e.progress, before + run_now, before);
+  long done = before, ok = e.only.empty() ? st.ok_count : 0;
+  Watchdog watchdog(e.watchdog);
+  std::vector<WorkerProcess> workers(static_cast<size_t>(std::max(1, e.jobs)));
   const auto t0 = std::chrono::steady_clock::now();
-  std::vector<uint64_t> order;
-  for (int64_t t : e.only) order.push_back(static_cast<uint64_t>(t));
-  if (order.empty())
-    for (int64_t t = 0; t < e.trials; ++t) order.push_back(static_cast<uint64_t>(t));
-  const long count = static_cast<long>(order.size());
-  std::vector<TrialRecord> results(count);
-  std::atomic<long> next{0};
-  std::mutex mu;
-  long done = 0, ok = 0;
-  Progress progress(e.progress, count);
-  std::exception_ptr error;
-  auto worker = [&](SimWorld& world) {
-    try {
-      TrialRunner runner(e, cell, tree, (out / "bt").string(), date);
-      for (long i; (i = next++) < count;) {
-        const uint64_t trial = order[i];
-        Rng rng_scene = Rng::stream(e.seed, trial, Purpose::kScene);
-        const SpawnResult spawn = spawnObjects(world, robot, cell.T_world_bin, cell.bin_half, rng_scene, e.spawn);
-        TrialOutcome o;
-        std::string bt_log;
-        if (!spawn.ok) {
-          o.failure_stage = "spawn";
-          o.failure_reason = spawn.reason;
-        } else {
-          auto hw = e.hardware == "mock" ? makeMockHardware(world, robot, spawn.active)
-                                         : makeMujocoHardware(world, robot, spawn.active);
-          o = runner.run(*hw, world, trial, bt_log);
-        }
-        TrialRecord record = makeRecord(e, trial, spawn, std::move(o), bt_log.empty() ? "" : fs::relative(bt_log, out).string());
-        const std::string line = toJsonLine(record);
-        std::lock_guard<std::mutex> lock(mu);
-        jsonl << line << "\n";
-        jsonl.flush();
-        ++done;
-        ok += record.o.success;
-        progress.update(done, ok, trial, record.o);
-        results[i] = std::move(record);
-      }
-    } catch (...) {
-      std::lock_guard<std::mutex> lock(mu);
-      if (!error) error = std::current_exception();
-      next = count;  // stop the others
-    }
+  std::string fatal;
+
+  auto record = [&](const std::string& line) {
+    jsonl << line << "\n";
+    jsonl.flush();
+    if (!jsonl) throw std::runtime_error("cannot append to " + (out / "trials.jsonl").string());
   };
-  std::vector<std::thread> threads;
-  for (int k = 1; k < e.jobs; ++k) threads.emplace_back(worker, std::ref(*worlds[k]));
-  worker(*worlds[0]);
-  for (auto& t : threads) t.join();
-  if (error) std::rethrow_exception(error);
+  auto finishWorker = [&](WorkerProcess& w) {
+    close(w.to);
+    close(w.from);
+    int status = 0;
+    while (waitpid(w.pid, &status, 0) < 0 && errno == EINTR) {
+    }
+    if (w.busy) {
+      std::string how;
+      if (w.watchdog_killed)
+        how = "stopped by the watchdog after " + fixed(w.watchdog_limit, 0) + " s of wall-clock time";
+      else if (WIFSIGNALED(status))
+        how = "its worker process died of " + signalText(WTERMSIG(status));
+      else
+        how = "its worker process exited with status " + std::to_string(WEXITSTATUS(status)) + (w.error.empty() ? "" : ": " + w.error);
+      if (!w.ready && WIFEXITED(status) && WEXITSTATUS(status) == 2)
+        fatal = "a worker process could not load the experiment (its message is above)";
+      if (w.attempt < 2) {
+        queue.emplace_front(w.trial, w.attempt + 1);
+      } else {
+        TrialRecord r;
+        r.trial = w.trial;
+        r.seed = e.seed;
+        r.hardware = e.hardware;
+        r.attempts = w.attempt;
+        r.o.failure_stage = "worker";
+        r.o.failure_kind = w.watchdog_killed ? FailureKind::kHang : FailureKind::kCrash;
+        r.o.failure_reason = how + ", in both attempts (seed " + std::to_string(e.seed) + ", trial " + std::to_string(w.trial) + ")";
+        r.o.tree_status = w.watchdog_killed ? "HANG" : "CRASH";
+        record(toJsonLine(r));
+        ++done;
+        progress.update(done, ok, w.trial, r.o);
+      }
+    }
+    w = WorkerProcess{};
+  };
+
+  try {
+    while (fatal.empty()) {
+      // Start workers while there are trials for them; hand each idle one the next trial.
+      bool any = false;
+      for (WorkerProcess& w : workers) {
+        if (w.pid < 0 && !queue.empty()) w = spawnWorker(binary, args);
+        if (w.pid < 0) continue;
+        any = true;
+        if (!w.busy && w.to >= 0) {
+          if (queue.empty()) {
+            close(w.to);  // no more work: it exits
+            w.to = -1;
+          } else {
+            std::tie(w.trial, w.attempt) = queue.front();
+            queue.pop_front();
+            w.busy = true;
+            w.started = std::chrono::steady_clock::now();
+            w.watchdog_limit = watchdog.limit();
+            sendLine(w.to, "RUN " + std::to_string(w.trial) + " " + std::to_string(w.attempt));
+          }
+        }
+      }
+      if (!any) break;
+      std::vector<pollfd> fds;
+      for (const WorkerProcess& w : workers) fds.push_back({w.pid < 0 ? -1 : w.from, POLLIN, 0});
+      if (poll(fds.data(), fds.size(), 200) < 0 && errno != EINTR) throw std::runtime_error("poll: " + std::string(std::strerror(errno)));
+      for (size_t k = 0; k < workers.size(); ++k) {
+        WorkerProcess& w = workers[k];
+        if (w.pid < 0) continue;
+        if (fds[k].revents & (POLLIN | POLLHUP | POLLERR)) {
+          char buf[65536];
+          const ssize_t n = read(w.from, buf, sizeof buf);
+          if (n < 0 && errno == EINTR) continue;
+          if (n <= 0) {  // its end: exited, killed or crashed; a half line it left is dropped
+            finishWorker(w);
+            continue;
+          }
+          w.buffer.append(buf, static_cast<size_t>(n));
+          for (size_t nl; (nl = w.buffer.find('\n')) != std::string::npos;) {
+            const std::string line = w.buffer.substr(0, nl);
+            w.buffer.erase(0, nl + 1);
+            if (line.rfind("READY ", 0) == 0) {
+              w.ready = true;
+              if (line.substr(6) != expected_digest) fatal = "the experiment's files changed while the campaign ran";
+            } else if (line.rfind("ERROR ", 0) == 0) {
+              w.error = line.substr(6);
+            } else if (w.busy) {
+              const TrialRecord r = fromJsonLine(line, "worker " + std::to_string(w.pid));
+              if (r.trial != w.trial) throw std::runtime_error("worker answered for trial " + std::to_string(r.trial));
+              record(line);
+              watchdog.finished(std::chrono::duration<double>(std::chrono::steady_clock::now() - w.started).count());
+              w.busy = false;
+              ++done;
+              ok += r.o.success;
+              progress.update(done, ok, r.trial, r.o);
+            }
+          }
+        } else if (w.busy && !w.watchdog_killed &&
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - w.started).count() > w.watchdog_limit) {
+          w.watchdog_killed = true;  // a true hang: its end arrives as end of output
+          kill(w.pid, SIGKILL);
+        }
+      }
+    }
+  } catch (...) {
+    for (WorkerProcess& w : workers)
+      if (w.pid > 0) kill(w.pid, SIGKILL), waitpid(w.pid, nullptr, 0);
+    sigaction(SIGPIPE, &old_pipe, nullptr);
+    throw;
+  }
+  for (WorkerProcess& w : workers)
+    if (w.pid > 0) kill(w.pid, SIGKILL), waitpid(w.pid, nullptr, 0);
+  sigaction(SIGPIPE, &old_pipe, nullptr);
+  if (!fatal.empty()) throw std::runtime_error(fatal);
+  jsonl.close();
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const Summary s = summarize(e, results, wall, co);
+
+  // The summary streams trials.jsonl back: constant memory in the number of trials.
+  SummaryBuilder builder;
+  {
+    std::ifstream in(out / "trials.jsonl", std::ios::binary);
+    long number = 0;
+    for (std::string line; std::getline(in, line);) builder.add(fromJsonLine(line, (out / "trials.jsonl").string() + ":" + std::to_string(++number)));
+  }
+  const Summary s = summarize(e, builder.get(), wall, run_now, co);
   writeAtomically(out / "summary.json", s.json + "\n");
   return s.table;
 }

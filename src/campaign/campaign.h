@@ -1,4 +1,5 @@
 // A campaign: N seeded trials of the bin-picking pipeline, results written as they happen.
+//   <out>/campaign.json         what the results depend on (resume checks it), the start date
 //   <out>/config.resolved.yaml  every parameter as used
 //   <out>/trials.jsonl          one JSON object per trial, appended and flushed as each ends
 //   <out>/summary.json          yields with Wilson 95% intervals, cycle time, breakdown, accuracy,
@@ -13,10 +14,19 @@ namespace mm {
 struct CampaignOptions {
   std::string out_dir;       ///< results folder
   std::string command_line;  ///< as typed, recorded in the summary
+  std::string worker_binary;  ///< the minimanip executable run as workers (default: this process's)
 };
 
 /// Loads the robot and scene (input errors throw InputError before anything is written), then
-/// runs the trials. Returns the printed summary table.
+/// runs the trials in `jobs` worker processes (`minimanip worker`) and writes the summary. A
+/// results folder that holds the same campaign (campaign.json) is resumed: its finished trials are
+/// kept, the others run. A worker that dies or hangs is replaced and its trial retried once, then
+/// recorded as failure_kind crash or hang. Returns the printed summary table.
 std::string runCampaign(const Experiment& experiment, const CampaignOptions& options);
+
+/// The worker process (the hidden `minimanip worker` command): loads the experiment as the
+/// supervisor did, then runs the trials it is sent on stdin and answers each with its trials.jsonl
+/// line on stdout. Returns the exit code.
+int runWorker(const Experiment& experiment, const std::string& out_dir);
 
 }  // namespace mm

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <thread>
 
 #include "core/error.h"
 #include "sim/hardware.h"
@@ -18,7 +19,11 @@ void Experiment::declare(ConfigArchive& a) {
   a.path("robot", robot_path, "robot YAML (a path in a file is relative to the file; --set, to the working directory; the default, to the project root)");
   a.path("scene", scene_path, "scene MJCF (includes the robot); paths as for robot");
   a.path("tree", tree_path, "behavior tree (BT.CPP v4 XML) run for each trial; paths as for robot. The default is the source's MiniManip tree");
-  a.value("jobs", jobs, {1, 64}, "", "parallel workers (outcomes do not depend on it)");
+  a.value("jobs", jobs, {0, 64}, "", "worker processes running trials in parallel, 0: one per core (outcomes do not depend on it)");
+  a.value("watchdog", watchdog, {1, 1e6}, "s",
+          "wall-clock limit of one trial, raised to 10x the campaign's median trial when that is more: a worker past it is "
+          "taken as hung, killed, and its trial retried once in a fresh worker, then recorded as failure_kind hang. It only "
+          "catches true hangs; a trial's own limit is its simulated-time budget (bt.time_budget, deterministic)");
   a.choice("progress", progress, {"auto", "bar", "lines", "none"}, "progress display; auto: a bar on a terminal, lines otherwise");
   a.enter("objects");
   spawn.declare(a);
@@ -29,6 +34,14 @@ void Experiment::declare(ConfigArchive& a) {
   task.declare(a);
   a.enter("faults");
   faults.declare(a);
+  a.leave();
+  a.enter("test_faults");
+  a.list("segfault", test_faults.segfault, {0, 1e7},
+         "test only: the worker running these trials dereferences a null pointer before the trial, in every attempt "
+         "(recorded as failure_kind crash)");
+  a.list("segfault_once", test_faults.segfault_once, {0, 1e7},
+         "test only: as segfault, in the first attempt only (the retry in a fresh worker succeeds)");
+  a.list("hang", test_faults.hang, {0, 1e7}, "test only: the worker running these trials sleeps forever instead (the watchdog's case)");
   a.leave();
   a.enter("bt");
   tree_run.declare(a);
@@ -63,6 +76,7 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
              [&](const std::string& key, const std::string& value) { return resolvePath(value, p.origin(key)); });
   e.file = path;
   e.params = std::move(p);
+  e.sets = sets;
   if (e.spawn.count_min > e.spawn.count_max)
     throw InputError(path, "objects.count_min (" + std::to_string(e.spawn.count_min) + ") must be <= objects.count_max (" +
                                std::to_string(e.spawn.count_max) + ")");
@@ -71,6 +85,7 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
       throw InputError(path, "'only' lists trial " + std::to_string(t) + ", expected indices below trials (" +
                                  std::to_string(e.trials) + ")");
   e.spawn.physics = e.hardware == "mujoco";
+  if (e.jobs == 0) e.jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   return e;
 }
 

@@ -28,7 +28,9 @@ struct Experiment {
   std::string robot_path = "robots/panda/panda.yaml";
   std::string scene_path = "scenes/bin_table.xml";
   std::string tree_path = "experiments/trees/mini_manip.xml";
-  int jobs = 1;
+  int jobs = 0;  ///< 0: one per core
+  /// [s] wall clock: a trial running longer (and longer than 10x the campaign's median) is hung.
+  double watchdog = 300;
   std::string progress = "auto";  ///< "auto" | "bar" | "lines" | "none"
   std::string bt_log = "failed_or_recovered";  ///< "none" | "failed_or_recovered" | "all": trials that keep a .db3
   SpawnOptions spawn;
@@ -36,7 +38,13 @@ struct Experiment {
   TaskOptions task;
   bt::TreeRunOptions tree_run;
   FaultOptions faults;
+  /// Test-only faults of the harness itself, by trial index: the worker process segfaults (in every
+  /// attempt, or only the first) or hangs before running the trial.
+  struct TestFaults {
+    std::vector<int64_t> segfault, segfault_once, hang;
+  } test_faults;
   ParamSet params{{}};  ///< every value as used (for config.resolved.yaml)
+  std::vector<std::string> sets;  ///< the "key=value" overrides it was loaded with (worker processes load the same)
 
   /// Every key of an experiment file, in the order of the config reference.
   void declare(ConfigArchive& a);

@@ -20,6 +20,7 @@ void TrialRecord::describe(RecordArchive& a) {
   a.field("trial", trial, "", "trial index (its random streams derive from (seed, trial, purpose))");
   a.field("seed", seed, "", "campaign seed");
   a.field("hardware", hardware, "", "mujoco or mock");
+  a.field("attempts", attempts, "", "worker processes the trial took: 2 when the first died or hung and a fresh one ran it again");
   a.field("success", o.success, "", "the tree succeeded, every object let go of rests at its target, nothing is left in the hand");
   a.field("failure_stage", o.failure_stage, "", "the stage that failed (null on success)");
   a.field("failure_reason", o.failure_reason, "", "why, in words");
@@ -28,7 +29,7 @@ void TrialRecord::describe(RecordArchive& a) {
   a.field("failure_kind", kind, "", kinds.c_str());
   o.failure_kind = failureKindFromName(kind);
   a.field("tree", o.tree, "", "the behavior tree's ID");
-  a.field("tree_status", o.tree_status, "", "SUCCESS, FAILURE, TIMEOUT (simulated-time budget) or ERROR (a script or port)");
+  a.field("tree_status", o.tree_status, "", "SUCCESS, FAILURE, TIMEOUT (simulated-time budget), ERROR (a script or port), CRASH or HANG (its worker process died or hung, twice)");
   a.field("ticks", o.ticks, "", "root ticks, re-ticks after a wake-up included");
   a.field("sim_unstable", o.sim_unstable, "", "MuJoCo flagged a bad state");
   a.field("dropped", o.dropped, "", "a held object left the hand");
@@ -194,8 +195,10 @@ void CampaignSummary::describe(RecordArchive& a) {
   a.field("objects_left_in_bin", objects_left_in_bin, "", "");
   a.field("bins_cleared", bins_cleared, "", "trials that ended with the bin empty");
   a.field("timeouts", timeouts, "", "trials past the simulated-time budget");
-  a.field("wall_seconds", wall_seconds, "s", "the campaign's wall time");
-  a.field("trials_per_second", trials_per_second, "1/s", "");
+  a.field("crashes", crashes, "", "trials whose worker process died in both attempts (failure_kind crash)");
+  a.field("hangs", hangs, "", "trials the wall-clock watchdog stopped in both attempts (failure_kind hang)");
+  a.field("wall_seconds", wall_seconds, "s", "wall time of this run of the campaign (after a resume: of the resumed part), workers' start-up included");
+  a.field("trials_per_second", trials_per_second, "1/s", "trials this run finished / wall_seconds");
   a.object("environment", [&](RecordArchive& e) {
     e.field("minimanip", minimanip, "", "");
     e.field("mujoco", mujoco, "", "");
@@ -204,7 +207,7 @@ void CampaignSummary::describe(RecordArchive& a) {
     e.field("cpu", cpu, "", "");
     e.field("cores", cores, "", "");
     e.field("host", host, "", "");
-    e.field("jobs", jobs, "", "workers");
+    e.field("jobs", jobs, "", "worker processes");
   }, "the machine and versions");
 }
 
@@ -353,88 +356,86 @@ std::string recordsMarkdown() {
   r.o.picks.resize(1);
   r.o.failures.resize(1);
   r.o.stages.resize(1);
+  r.o.faults.resize(1);
   r.describe(t);
   Documenter s;
   CampaignSummary c;
+  c.faults.resize(1);  // the documenter describes a list by its first item
   c.describe(s);
   return "`trials.jsonl`, one object per trial:\n\n" + t.out.str() + "\n`summary.json`:\n\n" + s.out.str();
 }
 
 // ---- the statistics --------------------------------------------------------------------------
 
-CampaignSummary summarizeTrials(const std::vector<TrialRecord>& trials) {
-  CampaignSummary s;
-  s.trials = static_cast<long>(trials.size());
-  double all_time = 0;
-  std::vector<double> cycle, sim, place_mm, orient_deg, track;
-  std::map<std::string, std::vector<double>> parts;
-  for (const TrialRecord& r : trials) {
-    const TrialOutcome& o = r.o;
-    s.collision_events += o.collision_count;
-    const long placed = std::count_if(o.picks.begin(), o.picks.end(), [](const PickRecord& p) { return p.placed; });
-    s.objects_placed += placed;
-    all_time += o.total_time;
-    s.objects_left_in_bin += o.objects_left_in_bin;
-    s.bins_cleared += o.objects_left_in_bin == 0;
-    s.timeouts += o.tree_status == "TIMEOUT";
-    s.sim_unstable += o.sim_unstable;
-    s.dropped += o.dropped;
-    track.push_back(o.max_tracking_error);
-    if (o.recovery_needed) ++s.recoveries_needed, s.recovered += o.recovery_success;
-    if (!o.success) {
-      s.failure_stages[o.failure_stage.empty() ? "unknown" : o.failure_stage]++;
-      continue;
-    }
-    ++s.successes;
-    if (!o.recovery_needed) ++s.first_pass;
-    cycle.push_back(o.total_time);
-    sim.push_back(o.sim_time);
-    place_mm.push_back(1000.0 * o.place_position_error);
-    orient_deg.push_back(180.0 / M_PI * o.place_orientation_error);
-    parts["perception_time"].push_back(o.perception_time);
-    parts["plan_pick_time"].push_back(o.plan_pick_time);
-    parts["execute_pick_time"].push_back(o.execute_pick_time);
-    parts["plan_place_time"].push_back(o.plan_place_time);
-    parts["execute_place_time"].push_back(o.execute_place_time);
-    parts["return_home_time"].push_back(o.return_home_time);
+void SummaryBuilder::add(const TrialRecord& r) {
+  const TrialOutcome& o = r.o;
+  CampaignSummary& s = s_;
+  ++s.trials;
+  s.collision_events += o.collision_count;
+  const long placed = std::count_if(o.picks.begin(), o.picks.end(), [](const PickRecord& p) { return p.placed; });
+  s.objects_placed += placed;
+  all_time_ += static_cast<SummaryBuilder::Int128>(std::llround(o.total_time * 1e9));
+  sim_total_ += static_cast<SummaryBuilder::Int128>(std::llround(o.sim_time * 1e9));
+  s.objects_left_in_bin += o.objects_left_in_bin;
+  s.bins_cleared += o.objects_left_in_bin == 0;
+  s.timeouts += o.tree_status == "TIMEOUT";
+  s.crashes += o.failure_kind == FailureKind::kCrash;
+  s.hangs += o.failure_kind == FailureKind::kHang;
+  s.sim_unstable += o.sim_unstable;
+  s.dropped += o.dropped;
+  s.max_tracking_error = std::max(s.max_tracking_error, o.max_tracking_error);
+  if (o.recovery_needed) ++s.recoveries_needed, s.recovered += o.recovery_success;
+  unrecovered_failures_ += !o.success;
+  for (const RecordedFailure& f : o.failures) s.protective_stops += f.failure.kind == FailureKind::kTracking;
+  for (const FaultRecord& f : o.faults) {
+    FaultStats& k = kinds_[f.kind];
+    k.kind = f.kind;
+    const FaultKind kind = faultKindFromName(f.kind);
+    k.recoverable = kind == FaultKind::kCount || faultRecoverable(kind);
+    ++k.injected;
+    if (f.outcome == "no_effect") ++k.no_effect;
+    else ++k.detected;
+    if (f.outcome == "recovered") ++k.recovered, mttr_[f.kind].add(f.mttr);
+    if (f.outcome == "given_up") ++k.given_up;
+    if (f.outcome == "superseded") ++k.superseded;
+    if (f.outcome == "unrecovered") ++k.unrecovered;
   }
-  // Faults, kind by kind; failures the tree did not recover; protective stops.
-  std::map<std::string, FaultStats> kinds;
-  std::map<std::string, std::vector<double>> mttr;
-  double sim_total = 0;
-  long unrecovered_failures = 0;
-  for (const TrialRecord& r : trials) {
-    sim_total += r.o.sim_time;
-    unrecovered_failures += !r.o.success;
-    for (const RecordedFailure& f : r.o.failures) s.protective_stops += f.failure.kind == FailureKind::kTracking;
-    for (const FaultRecord& f : r.o.faults) {
-      FaultStats& k = kinds[f.kind];
-      k.kind = f.kind;
-      const FaultKind kind = faultKindFromName(f.kind);
-      k.recoverable = kind == FaultKind::kCount || faultRecoverable(kind);
-      ++k.injected;
-      if (f.outcome == "no_effect") ++k.no_effect;
-      else ++k.detected;
-      if (f.outcome == "recovered") ++k.recovered, mttr[f.kind].push_back(f.mttr);
-      if (f.outcome == "given_up") ++k.given_up;
-      if (f.outcome == "superseded") ++k.superseded;
-      if (f.outcome == "unrecovered") ++k.unrecovered;
-    }
+  if (!o.success) {
+    s.failure_stages[o.failure_stage.empty() ? "unknown" : o.failure_stage]++;
+    return;
   }
-  for (auto& [name, k] : kinds) {
+  ++s.successes;
+  if (!o.recovery_needed) ++s.first_pass;
+  cycle_.add(o.total_time);
+  sim_.add(o.sim_time);
+  place_mm_.add(1000.0 * o.place_position_error);
+  orient_deg_.add(180.0 / M_PI * o.place_orientation_error);
+  parts_["perception_time"].add(o.perception_time);
+  parts_["plan_pick_time"].add(o.plan_pick_time);
+  parts_["execute_pick_time"].add(o.execute_pick_time);
+  parts_["plan_place_time"].add(o.plan_place_time);
+  parts_["execute_place_time"].add(o.execute_place_time);
+  parts_["return_home_time"].add(o.return_home_time);
+}
+
+CampaignSummary SummaryBuilder::get() const {
+  CampaignSummary s = s_;
+  for (const auto& [name, k0] : kinds_) {
+    FaultStats k = k0;
     const long good = k.recoverable ? k.recovered : k.given_up, judged = good + k.unrecovered;
     if (judged > 0) {
       k.recovery = double(good) / judged;
       const auto [lo, hi] = wilson95(good, judged);
       k.ci95 = {lo, hi};
     }
-    if (!mttr[name].empty()) {
-      const Moments m = moments(mttr[name]);
+    if (const auto it = mttr_.find(name); it != mttr_.end() && it->second.get().n > 0) {
+      const Moments m = it->second.get();
       k.mttr_mean = m.mean, k.mttr_max = m.max;
     }
     s.faults.push_back(k);
   }
-  s.mtbf = unrecovered_failures > 0 ? sim_total / unrecovered_failures : -1;
+  const double all_time = static_cast<double>(all_time_) / 1e9, sim_total = static_cast<double>(sim_total_) / 1e9;
+  s.mtbf = unrecovered_failures_ > 0 ? sim_total / unrecovered_failures_ : -1;
 
   const long n = s.trials;
   const auto [fl, fh] = wilson95(s.first_pass, n);
@@ -444,19 +445,26 @@ CampaignSummary summarizeTrials(const std::vector<TrialRecord>& trials) {
   s.first_pass_ci95 = {fl, fh};
   s.overall_ci95 = {ol, oh};
   s.recovery_rate = s.recoveries_needed ? double(s.recovered) / s.recoveries_needed : -1;
-  const Moments c = moments(cycle), m = moments(sim), pm = moments(place_mm), od = moments(orient_deg), tr = moments(track);
+  const Moments c = cycle_.get(), m = sim_.get(), pm = place_mm_.get(), od = orient_deg_.get();
   s.cycle_mean = c.mean, s.cycle_std = c.std, s.cycle_max = c.max;
   s.sim_mean = m.mean, s.sim_std = m.std, s.sim_max = m.max;
   s.throughput_per_hour = all_time > 0 ? 3600.0 * s.objects_placed / all_time : 0.0;
   s.time_per_pick = s.objects_placed > 0 ? all_time / s.objects_placed : 0.0;
   for (const char* k : {"perception_time", "plan_pick_time", "execute_pick_time", "plan_place_time", "execute_place_time",
-                        "return_home_time"})
-    s.breakdown[k] = moments(parts[k]).mean;
+                        "return_home_time"}) {
+    const auto it = parts_.find(k);
+    s.breakdown[k] = it == parts_.end() ? 0.0 : it->second.get().mean;
+  }
   s.place_mm_mean = pm.mean, s.place_mm_max = pm.max;
   s.orient_deg_mean = od.mean, s.orient_deg_max = od.max;
   s.collisions_per_100 = n ? 100.0 * s.collision_events / n : 0.0;
-  s.max_tracking_error = tr.max;
   return s;
+}
+
+CampaignSummary summarizeTrials(const std::vector<TrialRecord>& trials) {
+  SummaryBuilder b;
+  for (const TrialRecord& r : trials) b.add(r);
+  return b.get();
 }
 
 }  // namespace mm

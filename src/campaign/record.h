@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "campaign/stats.h"
 #include "task/trial_outcome.h"
 
 namespace mm {
@@ -45,6 +46,7 @@ struct TrialRecord {
   int objects_in_bin = 0;  ///< spawned
   int spawn_attempts = 0;
   std::string bt_log;      ///< the .db3 relative to the results folder, if kept
+  int attempts = 1;        ///< worker processes it took (2: the first died or hung)
   TrialOutcome o;
   void describe(RecordArchive& a);
 };
@@ -83,6 +85,7 @@ struct CampaignSummary {
   long collision_events = 0;
   double collisions_per_100 = 0, max_tracking_error = 0;
   long sim_unstable = 0, dropped = 0, objects_placed = 0, objects_left_in_bin = 0, bins_cleared = 0, timeouts = 0;
+  long crashes = 0, hangs = 0;  ///< trials whose worker process died twice / was stopped by the watchdog
   std::map<std::string, long> failure_stages;
   std::vector<FaultStats> faults;  ///< per fault kind injected
   double mtbf = -1;                ///< [s] simulated time per trial failure the tree did not recover (-1: none)
@@ -93,7 +96,25 @@ struct CampaignSummary {
   void describe(RecordArchive& a);
 };
 
-/// The statistics of `trials` (counts, yields with Wilson 95% intervals, means).
+/// A campaign's statistics built one trial at a time in constant memory (a million-trial campaign
+/// streams its trials.jsonl through it). The result does not depend on the order of the trials.
+class SummaryBuilder {
+ public:
+  void add(const TrialRecord& r);
+  /// Counts, yields with Wilson 95% intervals, means; the environment fields are left empty.
+  CampaignSummary get() const;
+  __extension__ typedef __int128 Int128;
+
+ private:
+  CampaignSummary s_;
+  ExactMoments cycle_, sim_, place_mm_, orient_deg_;
+  std::map<std::string, ExactMoments> parts_, mttr_;
+  std::map<std::string, FaultStats> kinds_;
+  Int128 all_time_ = 0, sim_total_ = 0;
+  long unrecovered_failures_ = 0;
+};
+
+/// The statistics of `trials` (a SummaryBuilder fed with each).
 CampaignSummary summarizeTrials(const std::vector<TrialRecord>& trials);
 std::string toJson(CampaignSummary& s);  ///< pretty-printed
 

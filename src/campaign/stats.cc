@@ -29,4 +29,26 @@ Moments moments(const std::vector<double>& v) {
   return m;
 }
 
+void ExactMoments::add(double x) {
+  if (!std::isfinite(x)) return;
+  const Int128 q = static_cast<Int128>(std::llround(x * 1e9));
+  if (n_ == 0 || x < min_) min_ = x;
+  if (n_ == 0 || x > max_) max_ = x;
+  ++n_;
+  sum_ += q;
+  sum_sq_ += q * q;
+}
+
+Moments ExactMoments::get() const {
+  Moments m;
+  m.n = n_;
+  if (n_ == 0) return m;
+  // n*sum_sq - sum^2 is exact in integers, then scaled once: no cancellation.
+  const Int128 var_num = static_cast<Int128>(n_) * sum_sq_ - sum_ * sum_;
+  m.mean = static_cast<double>(sum_) / 1e9 / n_;
+  m.std = std::sqrt(std::max(0.0, static_cast<double>(var_num))) / 1e9 / n_;
+  m.min = min_, m.max = max_;
+  return m;
+}
+
 }  // namespace mm

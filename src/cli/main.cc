@@ -107,12 +107,20 @@ int main(int argc, char** argv) {
   bool no_simplify = false;
   plan_cmd->add_flag("--no-simplify", no_simplify, "do not simplify the planned paths (= --simplify false)");
 
+  // The worker process of a campaign (started by `run`, not by people): hidden from --help.
+  RunArgs worker_args;
+  CLI::App* worker = app.add_subcommand("worker", "");
+  worker->group("");
+  worker->add_option("experiment", worker_args.file)->required();
+  worker->add_option("--out", worker_args.out)->required();
+  worker->add_option("--set", worker_args.sets);
+
   CLI::App* config_doc = app.add_subcommand("config-doc", "print every experiment key as a Markdown table");
   CLI::App* nodes_doc = app.add_subcommand("nodes-doc", "print the behavior-tree node library as a Markdown table");
   CLI::App* results_doc = app.add_subcommand("results-doc", "print the fields of trials.jsonl and summary.json as Markdown");
 
   try {
-    const std::vector<std::string> commands = {"run", "bench", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc"};
+    const std::vector<std::string> commands = {"run", "bench", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc", "worker"};
     if (argc > 1 && argv[1][0] != '-' && std::find(commands.begin(), commands.end(), argv[1]) == commands.end())
       throw mm::InputError(argv[1], "unknown command (expected run, bench, ik-bench, plan-bench, config-doc, nodes-doc or results-doc; --help)");
     try {
@@ -124,6 +132,7 @@ int main(int argc, char** argv) {
     } catch (const CLI::ParseError& e) {
       throw mm::InputError("minimanip", std::string(e.what()) + "\n" + app.help());
     }
+    if (worker->parsed()) return mm::runWorker(mm::loadExperiment(worker_args.file, worker_args.sets), worker_args.out);
     if (run->parsed() || bench->parsed()) {
       const RunArgs& r = run->parsed() ? run_args : bench_args;
       const mm::Experiment e = loadRun(r);

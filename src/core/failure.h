@@ -23,8 +23,10 @@ enum class FailureKind {
   kPrecondition,          ///< an action could not run in the state it was called in
   kTracking,              ///< a joint left the path tolerance (the controller's protective stop)
   kPathBlocked,           ///< an obstacle sensed during a motion blocks the rest of its path
+  kCrash,                 ///< the trial's worker process died (a signal), in both attempts
+  kHang,                  ///< the wall-clock watchdog stopped the trial's worker, in both attempts
 };
-constexpr FailureKind kLastFailureKind = FailureKind::kPathBlocked;
+constexpr FailureKind kLastFailureKind = FailureKind::kHang;
 
 /// Stable snake_case name (written into trials.jsonl).
 const char* failureKindName(FailureKind kind);

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <mutex>
 #include <set>
@@ -18,8 +20,16 @@ namespace {
 
 thread_local std::string g_last_warning;
 
-// MuJoCo's default error handler waits on stdin and writes MUJOCO_LOG.TXT; ours throws instead.
-void onMujocoError(const char* msg) { throw std::runtime_error(std::string("MuJoCo error: ") + msg); }
+// MuJoCo's default error handler waits on stdin and writes MUJOCO_LOG.TXT. Ours must not return
+// (MuJoCo's state is undefined after mju_error) and must not unwind through MuJoCo's C frames (no
+// exception, no longjmp): it says what happened and ends the process. In a campaign that process is
+// a worker: the supervisor retries the trial in a fresh worker, then records it as a crash.
+// (Loading never gets here: mj_loadXML reports its errors in a buffer.)
+void onMujocoError(const char* msg) {
+  std::fprintf(stderr, "minimanip: MuJoCo error: %s\n", msg);
+  std::fflush(stderr);
+  std::abort();
+}
 void onMujocoWarning(const char* msg) { g_last_warning = msg; }
 
 void installHandlers() {

@@ -11,6 +11,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "cli_helpers.h"
+
 namespace mm {
 namespace {
 
@@ -18,56 +20,7 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 using ::testing::HasSubstr;
 using ::testing::MatchesRegex;
-
-struct RunResult {
-  int code = -1;
-  std::string out;  // stdout and stderr
-};
-
-RunResult runMinimanip(const std::string& args) {
-  RunResult r;
-  const std::string cmd = std::string(MINIMANIP_BINARY) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  char buf[4096];
-  while (size_t n = fread(buf, 1, sizeof buf, p)) r.out.append(buf, n);
-  const int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
-
-class TempDir {
- public:
-  TempDir() {
-    path_ = fs::temp_directory_path() / ("mm_test_" + std::to_string(getpid()) + "_" + std::to_string(counter_++));
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  const fs::path& path() const { return path_; }
-  std::string file(const std::string& name, const std::string& text) const {
-    std::ofstream((path_ / name).string()) << text;
-    return (path_ / name).string();
-  }
-
- private:
-  fs::path path_;
-  static inline int counter_ = 0;
-};
-
-std::vector<json> readTrials(const fs::path& dir) {
-  std::vector<json> v;
-  std::ifstream in(dir / "trials.jsonl");
-  for (std::string line; std::getline(in, line);) v.push_back(json::parse(line));
-  std::sort(v.begin(), v.end(), [](const json& a, const json& b) { return a["trial"] < b["trial"]; });
-  return v;
-}
-
-// Everything but wall-clock figures.
-json outcomeFields(json t) {
-  t.erase("cycle");
-  t.erase("compute_time");
-  for (auto& s : t["stages"]) s.erase("compute_seconds");
-  return t;
-}
+using namespace testing_cli;
 
 std::string source(const std::string& rel) { return (fs::current_path() / rel).string(); }
 
@@ -146,21 +99,26 @@ TEST(Campaign, WeldModeSucceeds) {
   for (const auto& t : readTrials(d.path() / "out")) EXPECT_TRUE(t["success"].get<bool>()) << t.dump();
 }
 
-// The same experiment and seed give identical outcome fields, run again or with two workers.
+// The same experiment and seed give identical outcome fields, run again or with one, two or three
+// worker processes.
 TEST(Campaign, DeterministicAcrossRunsAndWorkerCounts) {
   TempDir d;
   const std::string base = "run experiments/quickstart.yaml --trials 6 --seed 77 --set objects.count_max=3 --set progress=none";
-  ASSERT_EQ(runMinimanip(base + " --out " + (d.path() / "a").string()).code, 0);
-  ASSERT_EQ(runMinimanip(base + " --out " + (d.path() / "b").string()).code, 0);
+  ASSERT_EQ(runMinimanip(base + " --jobs 1 --out " + (d.path() / "a").string()).code, 0);
+  ASSERT_EQ(runMinimanip(base + " --jobs 1 --out " + (d.path() / "b").string()).code, 0);
   ASSERT_EQ(runMinimanip(base + " --jobs 2 --out " + (d.path() / "c").string()).code, 0);
-  const auto a = readTrials(d.path() / "a"), b = readTrials(d.path() / "b"), c = readTrials(d.path() / "c");
+  ASSERT_EQ(runMinimanip(base + " --jobs 3 --out " + (d.path() / "c3").string()).code, 0);
+  const auto a = readTrials(d.path() / "a"), b = readTrials(d.path() / "b"), c = readTrials(d.path() / "c"),
+             c3 = readTrials(d.path() / "c3");
   ASSERT_EQ(a.size(), 6u);
   ASSERT_EQ(b.size(), 6u);
   ASSERT_EQ(c.size(), 6u);
+  ASSERT_EQ(c3.size(), 6u);
   std::set<int> counts;
   for (size_t i = 0; i < a.size(); ++i) {
     EXPECT_EQ(outcomeFields(a[i]), outcomeFields(b[i])) << "trial " << i;
     EXPECT_EQ(outcomeFields(a[i]), outcomeFields(c[i])) << "trial " << i << " with 2 workers";
+    EXPECT_EQ(outcomeFields(a[i]), outcomeFields(c3[i])) << "trial " << i << " with 3 workers";
     counts.insert(a[i]["objects_in_bin"].get<int>());
   }
   EXPECT_GT(counts.size(), 1u) << "the seeded sampler should vary the number of objects";

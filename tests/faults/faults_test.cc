@@ -57,7 +57,7 @@ FaultStats campaignWithOnly(FaultKind kind, const std::string& tree, int trials,
                    (static_cast<FaultKind>(k) == kind ? "1" : "0"));
   const Experiment e = loadExperiment("experiments/faults.yaml", sets);
   const fs::path out = fs::temp_directory_path() / ("mm_faults_" + std::to_string(getpid()) + "_" + faultKindName(kind));
-  runCampaign(e, {out.string(), "faults_test"});
+  runCampaign(e, {out.string(), "faults_test", MINIMANIP_BINARY});
   std::vector<TrialRecord> records;
   std::ifstream in(out / "trials.jsonl");
   for (std::string line; std::getline(in, line);) records.push_back(fromJsonLine(line, "trials.jsonl"));
