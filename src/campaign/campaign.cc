@@ -86,19 +86,7 @@ std::string hostName() {
   return buf;
 }
 
-struct Summary {
-  std::string json, table;
-};
-
-Summary summarize(const Experiment& e, CampaignSummary s, double wall_seconds, long run_now, const CampaignOptions& co) {
-  s.experiment = e.name;
-  s.experiment_file = e.file;
-  s.command = co.command_line;
-  s.seed = e.seed;
-  s.hardware = e.hardware;
-  s.tree = e.tree_path;
-  s.wall_seconds = wall_seconds;
-  s.trials_per_second = wall_seconds > 0 ? run_now / wall_seconds : 0.0;
+void fillEnvironment(CampaignSummary& s) {
   s.minimanip = MINIMANIP_VERSION;
   s.mujoco = mujocoVersion();
   s.ompl = omplVersion();
@@ -106,13 +94,16 @@ Summary summarize(const Experiment& e, CampaignSummary s, double wall_seconds, l
   s.cpu = cpuModel();
   s.cores = std::thread::hardware_concurrency();
   s.host = hostName();
-  s.jobs = e.jobs;
+}
 
+}  // namespace
+
+std::string summaryTable(const CampaignSummary& s) {
   const long n = s.trials;
   std::ostringstream t;
   t << std::fixed;
   const std::string rule(64, '=');
-  t << rule << "\n  Bin-Picking Performance Report: " << e.name << " (" << e.hardware << ", seed " << e.seed << ")\n" << rule << "\n";
+  t << rule << "\n  Bin-Picking Performance Report: " << s.experiment << " (" << s.hardware << ", seed " << s.seed << ")\n" << rule << "\n";
   t << std::setprecision(1);
   t << "  Trials:            " << n << "\n";
   t << "  First-pass Yield:  " << 100.0 * s.first_pass_yield << "%  [95% CI " << 100 * s.first_pass_ci95[0] << ", "
@@ -134,7 +125,7 @@ Summary summarize(const Experiment& e, CampaignSummary s, double wall_seconds, l
       {"execute_place_time", "Exec Place    (sim)"},   {"return_home_time", "Return Home   (plan + sim)"}};
   for (const auto& [key, label] : rows)
     t << "    " << std::left << std::setw(28) << label << std::right << std::setw(9) << std::setprecision(1)
-      << 1000 * s.breakdown[key] << " ms\n";
+      << 1000 * (s.breakdown.count(key) ? s.breakdown.at(key) : 0.0) << " ms\n";
   t << std::string(64, '-') << "\n" << std::setprecision(2);
   t << "  Place Error:       " << s.place_mm_mean << " mm (mean), " << s.place_mm_max << " mm (max); " << s.orient_deg_mean
     << " deg (mean)\n";
@@ -165,8 +156,10 @@ Summary summarize(const Experiment& e, CampaignSummary s, double wall_seconds, l
     for (const auto& [stage, count] : s.failure_stages) t << "    " << stage << ": " << count << "\n";
   }
   t << rule << "\n";
-  return {toJson(s), t.str()};
+  return t.str();
 }
+
+namespace {
 
 class Progress {
  public:
@@ -225,7 +218,7 @@ std::string fileDigest(const std::string& path) {
 
 // Keys that change how a campaign runs, not what its trials do.
 bool runOnlyKey(const std::string& key) {
-  return key == "trials" || key == "only" || key == "jobs" || key == "progress" || key == "watchdog";
+  return key == "trials" || key == "only" || key == "shard" || key == "jobs" || key == "progress" || key == "watchdog";
 }
 
 /// Every key's value as used; the robot, scene and tree by their files' contents.
@@ -242,7 +235,8 @@ json fingerprintOf(const Experiment& e) {
 }
 
 /// What differs between the campaign in a results folder (`there`) and this one, in words.
-std::string differences(const json& there, const json& here) {
+std::string differences(const json& there, const json& here, const std::string& there_name = "there",
+                        const std::string& here_name = "here") {
   std::string said;
   int n = 0;
   std::set<std::string> keys;
@@ -257,7 +251,7 @@ std::string differences(const json& there, const json& here) {
       break;
     }
     said += (said.empty() ? "" : "; ") +
-            (a.rfind("contents ", 0) == 0 ? k + " file contents differ" : k + " is " + a + " there, " + b + " here");
+            (a.rfind("contents ", 0) == 0 ? k + " file contents differ" : k + " is " + a + " " + there_name + ", " + b + " " + here_name);
   }
   return said;
 }
@@ -265,6 +259,8 @@ std::string differences(const json& there, const json& here) {
 struct ResumeState {
   bool resumed = false;
   std::string date;               ///< the campaign's first start (the .db3 files' session date)
+  std::string first_command;      ///< the command that started it
+  long trials = 0;                ///< the campaign's trial count (the largest asked for)
   std::vector<char> done;         ///< by trial index
   long done_count = 0, ok_count = 0, dropped_lines = 0;
 };
@@ -290,6 +286,8 @@ ResumeState prepareResults(const Experiment& e, const fs::path& out, const json&
                                           "or remove the folder to start over");
     st.resumed = true;
     st.date = there.value("date", localDateTime());
+    st.first_command = there.value("command", command);
+    st.trials = std::max<long>(st.trials, there.value("trials", 0L));
   } else if (fs::exists(jsonl_path) || fs::exists(out / "summary.json")) {
     throw InputError(out.string(), "holds results but no campaign.json (not made by this version): remove it or use another --out");
   }
@@ -328,11 +326,14 @@ ResumeState prepareResults(const Experiment& e, const fs::path& out, const json&
     if (!kept) throw std::runtime_error("cannot write " + tmp.string());
     if (st.dropped_lines) fs::rename(tmp, jsonl_path);
     else fs::remove(tmp);
-  } else {
+  } else if (!st.resumed) {
     st.date = localDateTime();
-    json m = {{"schema", 1}, {"date", st.date}, {"command", command}, {"fingerprint", fingerprint}};
-    writeAtomically(meta, m.dump(2) + "\n");
+    st.first_command = command;
   }
+  st.trials = std::max<long>(st.trials, static_cast<long>(e.trials));
+  const json m = {{"schema", 1},         {"date", st.date},   {"command", st.first_command}, {"trials", st.trials},
+                  {"shard", e.shard},    {"fingerprint", fingerprint}};
+  writeAtomically(meta, m.dump(2) + "\n");
   return st;
 }
 
@@ -511,9 +512,12 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
   for (int64_t t : e.only) wanted.push_back(static_cast<uint64_t>(t));
   if (wanted.empty())
     for (int64_t t = 0; t < e.trials; ++t) wanted.push_back(static_cast<uint64_t>(t));
+  wanted.erase(std::remove_if(wanted.begin(), wanted.end(),
+                              [&](uint64_t t) { return static_cast<int>(t % e.shard_count) != e.shard_index; }),
+               wanted.end());
   for (uint64_t t : wanted)
     if (t >= st.done.size() || !st.done[t]) queue.emplace_back(t, 1);
-  const long before = e.only.empty() ? st.done_count : static_cast<long>(wanted.size() - queue.size());
+  const long before = static_cast<long>(wanted.size() - queue.size());
   const long run_now = static_cast<long>(queue.size());
 
   const std::string binary = co.worker_binary.empty() ? fs::read_symlink("/proc/self/exe").string() : co.worker_binary;
@@ -527,7 +531,7 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
 
   std::ofstream jsonl(out / "trials.jsonl", std::ios::app | std::ios::binary);
   Progress progress(e.progress, before + run_now, before);
-  long done = before, ok = e.only.empty() ? st.ok_count : 0;
+  long done = before, ok = e.only.empty() && e.shard_count == 1 ? st.ok_count : 0;
   Watchdog watchdog(e.watchdog);
   std::vector<WorkerProcess> workers(static_cast<size_t>(std::max(1, e.jobs)));
   const auto t0 = std::chrono::steady_clock::now();
@@ -658,9 +662,135 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
     long number = 0;
     for (std::string line; std::getline(in, line);) builder.add(fromJsonLine(line, (out / "trials.jsonl").string() + ":" + std::to_string(++number)));
   }
-  const Summary s = summarize(e, builder.get(), wall, run_now, co);
-  writeAtomically(out / "summary.json", s.json + "\n");
-  return s.table;
+  CampaignSummary s = builder.get();
+  s.experiment = e.name;
+  s.experiment_file = e.file;
+  s.command = co.command_line;
+  s.seed = e.seed;
+  s.hardware = e.hardware;
+  s.tree = e.tree_path;
+  s.wall_seconds = wall;
+  s.trials_per_second = wall > 0 ? run_now / wall : 0.0;
+  s.jobs = e.jobs;
+  fillEnvironment(s);
+  writeAtomically(out / "summary.json", toJson(s) + "\n");
+  return summaryTable(s);
+}
+
+std::string mergeResults(const std::vector<std::string>& dirs, const std::string& out_dir, const std::string& command) {
+  if (dirs.empty()) throw InputError("merge", "expected the results folders to merge");
+  // Everything is checked before anything is written.
+  std::vector<json> metas;
+  for (const std::string& d : dirs) {
+    const fs::path meta = fs::path(d) / "campaign.json";
+    if (!fs::exists(meta)) throw InputError(d, "no campaign.json: not a campaign's results folder");
+    try {
+      metas.push_back(json::parse(std::ifstream(meta)));
+    } catch (const std::exception& ex) {
+      throw InputError(meta.string(), std::string("not a campaign record (") + ex.what() + ")");
+    }
+  }
+  const long trials = metas[0].value("trials", 0L);
+  for (size_t i = 1; i < dirs.size(); ++i) {
+    const std::string diff = differences(metas[0].value("fingerprint", json::object()), metas[i].value("fingerprint", json::object()),
+                                         "in " + dirs[0], "here");
+    if (!diff.empty())
+      throw InputError((fs::path(dirs[i]) / "campaign.json").string(), "another configuration than " + dirs[0] + ": " + diff);
+    if (metas[i].value("trials", 0L) != trials)
+      throw InputError((fs::path(dirs[i]) / "campaign.json").string(), "trials is " + std::to_string(metas[i].value("trials", 0L)) +
+                                                                         ", " + std::to_string(trials) + " in " + dirs[0]);
+  }
+  const fs::path out(out_dir);
+  if (fs::exists(out) && !(fs::is_directory(out) && fs::is_empty(out)))
+    throw InputError(out_dir, "exists and is not empty: merge writes a new folder");
+  std::vector<int> owner(static_cast<size_t>(trials), -1);
+  auto eachRecord = [&](const std::function<void(size_t, const std::string&, const TrialRecord&)>& f) {
+    for (size_t i = 0; i < dirs.size(); ++i) {
+      const fs::path path = fs::path(dirs[i]) / "trials.jsonl";
+      std::ifstream in(path, std::ios::binary);
+      long number = 0;
+      for (std::string line; std::getline(in, line);) {
+        const std::string where = path.string() + ":" + std::to_string(++number);
+        if (in.eof()) throw InputError(where, "a half-written last line: resume this campaign (run it again) before merging");
+        f(i, line, fromJsonLine(line, where));
+      }
+    }
+  };
+  eachRecord([&](size_t i, const std::string&, const TrialRecord& r) {
+    const std::string where = (fs::path(dirs[i]) / "trials.jsonl").string();
+    if (r.trial >= owner.size())
+      throw InputError(where, "trial " + std::to_string(r.trial) + " is past the campaign's " + std::to_string(trials) + " trials");
+    if (owner[r.trial] >= 0)
+      throw InputError(where, "trial " + std::to_string(r.trial) + " is also in " + dirs[static_cast<size_t>(owner[r.trial])]);
+    owner[r.trial] = static_cast<int>(i);
+    if (!r.bt_log.empty() && !fs::exists(fs::path(dirs[i]) / r.bt_log))
+      throw InputError(where, "trial " + std::to_string(r.trial) + "'s tree log " + r.bt_log + " is missing");
+  });
+  std::vector<long> missing;
+  for (size_t t = 0; t < owner.size(); ++t)
+    if (owner[t] < 0) missing.push_back(static_cast<long>(t));
+  if (!missing.empty()) {
+    std::string list;
+    for (size_t k = 0; k < std::min<size_t>(missing.size(), 8); ++k) list += (k ? ", " : "") + std::to_string(missing[k]);
+    throw InputError(out_dir, std::to_string(missing.size()) + " of the " + std::to_string(trials) +
+                                  " trials are in none of the folders (" + list + (missing.size() > 8 ? ", ..." : "") +
+                                  "): a shard missing or unfinished? Run it (again), then merge");
+  }
+
+  // Write: trials.jsonl in the folders' order, the tree logs beside it, the summary recomputed.
+  fs::create_directories(out);
+  const fs::path tmp = out / "trials.jsonl.tmp";
+  SummaryBuilder builder;
+  {
+    std::ofstream jsonl(tmp, std::ios::binary | std::ios::trunc);
+    eachRecord([&](size_t i, const std::string& line, const TrialRecord& r) {
+      jsonl << line << "\n";
+      builder.add(r);
+      if (!r.bt_log.empty()) {
+        fs::create_directories((out / r.bt_log).parent_path());
+        fs::copy_file(fs::path(dirs[i]) / r.bt_log, out / r.bt_log, fs::copy_options::overwrite_existing);
+      }
+    });
+    jsonl.flush();
+    if (!jsonl) throw std::runtime_error("cannot write " + tmp.string());
+  }
+  fs::rename(tmp, out / "trials.jsonl");
+  for (const std::string& d : dirs)  // camera renders, when a campaign has them
+    if (fs::exists(fs::path(d) / "renders"))
+      fs::copy(fs::path(d) / "renders", out / "renders", fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+  if (fs::exists(fs::path(dirs[0]) / "config.resolved.yaml")) {
+    std::ifstream in{fs::path(dirs[0]) / "config.resolved.yaml"};
+    std::ostringstream text;
+    text << "# " << command << "\n" << in.rdbuf();
+    writeAtomically(out / "config.resolved.yaml", text.str());
+  }
+  json meta = metas[0];
+  meta["command"] = command;
+  meta["shard"] = "0/1";
+  meta["merged_from"] = dirs;
+  writeAtomically(out / "campaign.json", meta.dump(2) + "\n");
+
+  CampaignSummary s = builder.get();
+  double wall = 0;
+  for (const std::string& d : dirs) {
+    const fs::path p = fs::path(d) / "summary.json";
+    if (!fs::exists(p)) continue;
+    std::ifstream in(p);
+    std::ostringstream text;
+    text << in.rdbuf();
+    const CampaignSummary shard = summaryFromJson(text.str(), p.string());
+    if (d == dirs[0]) {
+      s.experiment = shard.experiment, s.experiment_file = shard.experiment_file, s.seed = shard.seed;
+      s.hardware = shard.hardware, s.tree = shard.tree, s.jobs = shard.jobs;
+    }
+    wall += shard.wall_seconds;
+  }
+  s.command = command;
+  s.wall_seconds = wall;
+  s.trials_per_second = wall > 0 ? s.trials / wall : 0.0;
+  fillEnvironment(s);
+  writeAtomically(out / "summary.json", toJson(s) + "\n");
+  return summaryTable(s);
 }
 
 }  // namespace mm

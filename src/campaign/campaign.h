@@ -6,6 +6,7 @@
 //                               failures by stage, environment (written by temp file + rename)
 #pragma once
 #include <string>
+#include <vector>
 
 #include "campaign/experiment.h"
 
@@ -23,6 +24,17 @@ struct CampaignOptions {
 /// kept, the others run. A worker that dies or hangs is replaced and its trial retried once, then
 /// recorded as failure_kind crash or hang. Returns the printed summary table.
 std::string runCampaign(const Experiment& experiment, const CampaignOptions& options);
+
+/// Joins the results folders of one campaign's shards (`--shard K/N`) into `out_dir` (new or
+/// empty): checks that they hold the same configuration and trial count, every trial exactly once
+/// and no half-written line (InputError before anything is written), then writes trials.jsonl,
+/// the tree logs, campaign.json, config.resolved.yaml and the summary recomputed from the trials
+/// (wall_seconds: the shards' sum). Returns the printed summary table.
+std::string mergeResults(const std::vector<std::string>& dirs, const std::string& out_dir, const std::string& command);
+
+/// The summary table `run` prints.
+struct CampaignSummary;
+std::string summaryTable(const CampaignSummary& summary);
 
 /// The worker process (the hidden `minimanip worker` command): loads the experiment as the
 /// supervisor did, then runs the trials it is sent on stdin and answers each with its trials.jsonl

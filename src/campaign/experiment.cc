@@ -1,6 +1,7 @@
 #include "campaign/experiment.h"
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <thread>
 
@@ -14,6 +15,9 @@ void Experiment::declare(ConfigArchive& a) {
   a.value("trials", trials, {1, 1e7}, "", "number of trials (--trials overrides)");
   a.list("only", only, {0, 1e7},
          "run only these trials (indices below trials), each exactly as in the full campaign: a failed trial again, alone (--only 44,117)");
+  a.value("shard", shard,
+          "K/N: run only the trials whose index is K modulo N (0 <= K < N), e.g. one task of a Slurm array; "
+          "`minimanip merge` joins the shards' folders (--shard 1/4); 0/1: every trial");
   a.value("seed", seed, {0, 9.007e15}, "", "campaign seed; every random choice derives from (seed, trial, purpose)");
   a.choice("hardware", hardware, hardwareNames(), "mujoco: physics; mock: joints follow commands exactly");
   a.path("robot", robot_path, "robot YAML (a path in a file is relative to the file; --set, to the working directory; the default, to the project root)");
@@ -84,6 +88,14 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
     if (t >= e.trials)
       throw InputError(path, "'only' lists trial " + std::to_string(t) + ", expected indices below trials (" +
                                  std::to_string(e.trials) + ")");
+  {
+    int k = -1, n = 0;
+    char rest = 0;
+    if (std::sscanf(e.shard.c_str(), "%d/%d%c", &k, &n, &rest) != 2 || n < 1 || k < 0 || k >= n)
+      throw InputError(e.params.origin("shard").empty() ? "--set shard" : e.params.origin("shard"),
+                       "shard is '" + e.shard + "', expected K/N with 0 <= K < N, e.g. 0/4");
+    e.shard_index = k, e.shard_count = n;
+  }
   e.spawn.physics = e.hardware == "mujoco";
   if (e.jobs == 0) e.jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   return e;

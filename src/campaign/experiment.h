@@ -21,6 +21,8 @@ struct Experiment {
   std::string name = "quickstart";
   int64_t trials = 100;
   std::vector<int64_t> only;  ///< run only these trial indices (each exactly as in the full campaign)
+  std::string shard = "0/1";  ///< "K/N": only the trials with index % N == K (0/1: all)
+  int shard_index = 0, shard_count = 1;
   uint64_t seed = 1;
   std::string hardware = "mujoco";  ///< see hardwareNames()
   /// Paths, resolved: set in the file, against its folder; by --set, against the working

@@ -343,6 +343,18 @@ TrialRecord fromJsonLine(const std::string& line, const std::string& where) {
   return r;
 }
 
+CampaignSummary summaryFromJson(const std::string& text, const std::string& where) {
+  CampaignSummary s;
+  try {
+    const json j = json::parse(text);
+    Reader reader(j);
+    s.describe(reader);
+  } catch (const std::exception& e) {
+    throw InputError(where, std::string("not a campaign summary: ") + e.what());
+  }
+  return s;
+}
+
 std::string toJson(CampaignSummary& s) {
   json j = json::object();
   Writer w(j);

@@ -36,7 +36,7 @@ class RecordArchive {
   virtual bool reading() const { return false; }
 };
 
-constexpr int kTrialSchema = 2;
+constexpr int kTrialSchema = 3;  // 3: attempts; failure kinds crash and hang
 
 /// One trial as trials.jsonl holds it.
 struct TrialRecord {
@@ -117,6 +117,8 @@ class SummaryBuilder {
 /// The statistics of `trials` (a SummaryBuilder fed with each).
 CampaignSummary summarizeTrials(const std::vector<TrialRecord>& trials);
 std::string toJson(CampaignSummary& s);  ///< pretty-printed
+/// Parses a summary.json; throws InputError naming `where` when it is not one of this schema.
+CampaignSummary summaryFromJson(const std::string& text, const std::string& where);
 
 /// The fields of trials.jsonl and summary.json as Markdown lists (for the README).
 std::string recordsMarkdown();

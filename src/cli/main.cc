@@ -22,7 +22,7 @@ namespace {
 
 // `run` and `bench`: an experiment file, a few shortcuts and --set key=value.
 struct RunArgs {
-  std::string file, out, trials, seed, jobs, only;
+  std::string file, out, trials, seed, jobs, only, shard;
   std::vector<std::string> sets;
 };
 
@@ -32,6 +32,7 @@ void addRunOptions(CLI::App* sub, RunArgs& r, bool with_out) {
   sub->add_option("--seed", r.seed, "campaign seed (= --set seed=S)");
   sub->add_option("--jobs", r.jobs, "parallel workers (= --set jobs=N)");
   sub->add_option("--only", r.only, "only these trials, e.g. 44,117 (= --set only=44,117)");
+  sub->add_option("--shard", r.shard, "K/N: only the trials with index % N == K (= --set shard=K/N)");
   if (with_out) sub->add_option("--out", r.out, "results folder (default results/<name>)");
   sub->add_option("--set", r.sets, "key=value, any experiment key (repeatable)")->allow_extra_args(false);
 }
@@ -42,6 +43,7 @@ mm::Experiment loadRun(const RunArgs& r) {
   if (!r.seed.empty()) sets.push_back("seed=" + r.seed);
   if (!r.jobs.empty()) sets.push_back("jobs=" + r.jobs);
   if (!r.only.empty()) sets.push_back("only=" + r.only);
+  if (!r.shard.empty()) sets.push_back("shard=" + r.shard);
   sets.insert(sets.end(), r.sets.begin(), r.sets.end());
   return mm::loadExperiment(r.file, sets);
 }
@@ -107,6 +109,12 @@ int main(int argc, char** argv) {
   bool no_simplify = false;
   plan_cmd->add_flag("--no-simplify", no_simplify, "do not simplify the planned paths (= --simplify false)");
 
+  std::vector<std::string> merge_dirs;
+  std::string merge_out;
+  CLI::App* merge = app.add_subcommand("merge", "join the results folders of a campaign's shards (--shard K/N) into one");
+  merge->add_option("folders", merge_dirs, "the shards' results folders")->required();
+  merge->add_option("--out", merge_out, "the merged results folder (new or empty)")->required();
+
   // The worker process of a campaign (started by `run`, not by people): hidden from --help.
   RunArgs worker_args;
   CLI::App* worker = app.add_subcommand("worker", "");
@@ -120,9 +128,9 @@ int main(int argc, char** argv) {
   CLI::App* results_doc = app.add_subcommand("results-doc", "print the fields of trials.jsonl and summary.json as Markdown");
 
   try {
-    const std::vector<std::string> commands = {"run", "bench", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc", "worker"};
+    const std::vector<std::string> commands = {"run", "bench", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc", "merge", "worker"};
     if (argc > 1 && argv[1][0] != '-' && std::find(commands.begin(), commands.end(), argv[1]) == commands.end())
-      throw mm::InputError(argv[1], "unknown command (expected run, bench, ik-bench, plan-bench, config-doc, nodes-doc or results-doc; --help)");
+      throw mm::InputError(argv[1], "unknown command (expected run, bench, merge, ik-bench, plan-bench, config-doc, nodes-doc or results-doc; --help)");
     try {
       app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -131,6 +139,11 @@ int main(int argc, char** argv) {
       return app.exit(e);
     } catch (const CLI::ParseError& e) {
       throw mm::InputError("minimanip", std::string(e.what()) + "\n" + app.help());
+    }
+    if (merge->parsed()) {
+      std::cout << mm::mergeResults(merge_dirs, merge_out, command_line) << "Results: " << merge_out
+                << "/ (trials.jsonl, summary.json, config.resolved.yaml, campaign.json, bt/)\n";
+      return 0;
     }
     if (worker->parsed()) return mm::runWorker(mm::loadExperiment(worker_args.file, worker_args.sets), worker_args.out);
     if (run->parsed() || bench->parsed()) {

@@ -148,6 +148,12 @@ PlanResult planJointPath(const RobotModel& robot, CollisionChecker& checker, con
   }
   planner->setProblemDefinition(pdef);
   planner->setup();
+  // Frees the planner's graph before it is destroyed: OMPL 1.5.2's LazyPRM leaks the start and goal
+  // milestones its destructor leaves (ompl/ompl#833; clear() frees them; found by LeakSanitizer).
+  struct ClearOnExit {
+    ob::PlannerPtr p;
+    ~ClearOnExit() { p->clear(); }
+  } clear_on_exit{planner};
   const auto t0 = std::chrono::steady_clock::now();
   const ob::PlannerStatus status = planner->solve(ob::timedPlannerTerminationCondition(o.time_limit));
   r.plan_seconds = seconds(t0);

@@ -58,7 +58,7 @@ TEST(Resume, ExtendsACampaignAndDropsAHalfWrittenLine) {
   const std::string out = (d.path() / "out").string();
   ASSERT_EQ(runMinimanip(kMock + " --trials 4 --out " + out).code, 0);
   {  // the supervisor died in the middle of a line
-    std::ofstream(fs::path(out) / "trials.jsonl", std::ios::app) << "{\"schema\":2,\"trial\":4,\"seed";
+    std::ofstream(fs::path(out) / "trials.jsonl", std::ios::app) << "{\"schema\":3,\"trial\":4,\"seed";
   }
   const RunResult r = runMinimanip(kMock + " --trials 7 --out " + out);
   ASSERT_EQ(r.code, 0) << r.out;
@@ -108,29 +108,41 @@ std::vector<pid_t> childrenOf(pid_t pid) {
 }
 
 // kill -9 at seeded random moments, of the supervisor or of one of its workers, then resume; again
-// and again; then a last resume to the end. The trials equal an uninterrupted run's.
+// and again; then a last resume to the end. The trials equal an uninterrupted run's. The first
+// rounds strike while the campaign starts; the others after a random number of further trials
+// and a random delay (so they land mid-trial and mid-write whatever the machine's speed).
+long linesIn(const fs::path& file) {
+  std::ifstream in(file);
+  return std::count(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>(), '\n');
+}
+
 TEST(Resume, KilledAtRandomMomentsThenResumedEqualsAnUninterruptedRun) {
   TempDir d;
   const std::string out = (d.path() / "out").string();
+  const fs::path jsonl = fs::path(out) / "trials.jsonl";
   const std::string args = kMock + " --trials 24 --jobs 2 --set bt.log=all --out " + out;
   std::mt19937 rng(2026);
   int supervisor_kills = 0, worker_kills = 0, mid_campaign = 0;
   std::string progress;
   for (int round = 0; round < 8; ++round) {
+    const long before = linesIn(jsonl);
     const pid_t pid = startMinimanip(args);
-    std::this_thread::sleep_for(std::chrono::milliseconds(std::uniform_int_distribution<int>(50, 700)(rng)));
+    if (round >= 2) {  // wait for 1..4 more trials (or the end), at most 5 minutes
+      const long target = before + std::uniform_int_distribution<int>(1, 4)(rng);
+      for (int k = 0; k < 30000 && linesIn(jsonl) < target && waitpid(pid, nullptr, WNOHANG) == 0; ++k)
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(std::uniform_int_distribution<int>(0, 300)(rng)));
     const std::vector<pid_t> workers = childrenOf(pid);
-    const bool kill_worker = !workers.empty() && rng() % 2 == 0;
-    if (kill_worker) {
+    if (!workers.empty() && rng() % 2 == 0) {
       kill(workers[rng() % workers.size()], SIGKILL);
       ++worker_kills;
-      std::this_thread::sleep_for(std::chrono::milliseconds(std::uniform_int_distribution<int>(20, 300)(rng)));
+      std::this_thread::sleep_for(std::chrono::milliseconds(std::uniform_int_distribution<int>(0, 200)(rng)));
     }
     kill(pid, SIGKILL);
     ++supervisor_kills;
     waitpid(pid, nullptr, 0);
-    std::ifstream in(fs::path(out) / "trials.jsonl");
-    const long lines = std::count(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>(), '\n');
+    const long lines = linesIn(jsonl);
     mid_campaign += lines > 0 && lines < 24;
     progress += ' ';
     progress += std::to_string(lines);
