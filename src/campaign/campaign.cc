@@ -621,6 +621,7 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
             w.buffer.erase(0, nl + 1);
             if (line.rfind("READY ", 0) == 0) {
               w.ready = true;
+              w.started = std::chrono::steady_clock::now();  // the watchdog times the trial, not the worker's start-up
               if (line.substr(6) != expected_digest) fatal = "the experiment's files changed while the campaign ran";
             } else if (line.rfind("ERROR ", 0) == 0) {
               w.error = line.substr(6);
@@ -635,8 +636,9 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
               progress.update(done, ok, r.trial, r.o);
             }
           }
-        } else if (w.busy && !w.watchdog_killed &&
-                   std::chrono::duration<double>(std::chrono::steady_clock::now() - w.started).count() > w.watchdog_limit) {
+        } else if (w.busy && !w.watchdog_killed &&  // a worker's start-up gets a minute more
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - w.started).count() >
+                       w.watchdog_limit + (w.ready ? 0.0 : 60.0)) {
           w.watchdog_killed = true;  // a true hang: its end arrives as end of output
           kill(w.pid, SIGKILL);
         }

@@ -74,6 +74,9 @@ void TrialRecord::describe(RecordArchive& a) {
                                k.T_world_target.translation().z()};
     p.field("target", target, "m", "where it should rest (world x, y, z)");
     if (target.size() == 3) k.T_world_target.translation() = Vec3(target[0], target[1], target[2]);
+    std::vector<double> offset{k.offset.x(), k.offset.y(), k.offset.z()};
+    p.field("offset", offset, "m", "where it rests minus where it should (world x, y, z; zero unless let go of over its target)");
+    if (offset.size() == 3) k.offset = Vec3(offset[0], offset[1], offset[2]);
     p.field("grasp_candidates_tried", k.grasp_candidates_tried, "", "for this object");
     p.field("grasp_opening", k.grasp_opening, "m", "per finger when it was grasped");
     p.field("reason", k.reason, "", "why it is not placed");

@@ -36,7 +36,7 @@ class RecordArchive {
   virtual bool reading() const { return false; }
 };
 
-constexpr int kTrialSchema = 3;  // 3: attempts; failure kinds crash and hang
+constexpr int kTrialSchema = 4;  // 3: attempts, failure kinds crash and hang; 4: picks' offset
 
 /// One trial as trials.jsonl holds it.
 struct TrialRecord {

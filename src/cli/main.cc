@@ -14,6 +14,7 @@
 #include "campaign/ik_bench.h"
 #include "campaign/plan_bench.h"
 #include "campaign/record.h"
+#include "campaign/report.h"
 #include "campaign/trial.h"
 #include "core/config.h"
 #include "core/error.h"
@@ -115,6 +116,12 @@ int main(int argc, char** argv) {
   merge->add_option("folders", merge_dirs, "the shards' results folders")->required();
   merge->add_option("--out", merge_out, "the merged results folder (new or empty)")->required();
 
+  mm::ReportOptions report_opts;
+  CLI::App* report = app.add_subcommand("report", "a campaign's results as report.html (self-contained, plots inline) and report.md");
+  report->add_option("results", report_opts.results_dir, "the campaign's results folder")->required();
+  report->add_option("--ik-bench", report_opts.ik_bench, "also an ik-bench results folder (ik_bench.json)");
+  report->add_option("--plan-bench", report_opts.plan_bench, "also a plan-bench results folder (plan_bench.json)");
+
   // The worker process of a campaign (started by `run`, not by people): hidden from --help.
   RunArgs worker_args;
   CLI::App* worker = app.add_subcommand("worker", "");
@@ -128,9 +135,9 @@ int main(int argc, char** argv) {
   CLI::App* results_doc = app.add_subcommand("results-doc", "print the fields of trials.jsonl and summary.json as Markdown");
 
   try {
-    const std::vector<std::string> commands = {"run", "bench", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc", "merge", "worker"};
+    const std::vector<std::string> commands = {"run", "bench", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc", "merge", "report", "worker"};
     if (argc > 1 && argv[1][0] != '-' && std::find(commands.begin(), commands.end(), argv[1]) == commands.end())
-      throw mm::InputError(argv[1], "unknown command (expected run, bench, merge, ik-bench, plan-bench, config-doc, nodes-doc or results-doc; --help)");
+      throw mm::InputError(argv[1], "unknown command (expected run, bench, merge, report, ik-bench, plan-bench, config-doc, nodes-doc or results-doc; --help)");
     try {
       app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -139,6 +146,10 @@ int main(int argc, char** argv) {
       return app.exit(e);
     } catch (const CLI::ParseError& e) {
       throw mm::InputError("minimanip", std::string(e.what()) + "\n" + app.help());
+    }
+    if (report->parsed()) {
+      std::cout << "Report: " << mm::writeReport(report_opts) << " (and report.md, report_figures/)\n";
+      return 0;
     }
     if (merge->parsed()) {
       std::cout << mm::mergeResults(merge_dirs, merge_out, command_line) << "Results: " << merge_out

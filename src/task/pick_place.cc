@@ -1141,6 +1141,7 @@ void finishTrial(TrialContext& ctx, bool tree_succeeded) {
     }
     const ObjectState o = hw.object(p.object);
     const Vec3 pos = o.T_world_object.translation(), goal = p.T_world_target.translation();
+    p.offset = pos - goal;
     p.position_error = (pos - goal).head<2>().norm();
     p.orientation_error = boxSymmetricAngle(o.T_world_object.linear(), p.T_world_target.linear(), o.half_size);
     const double rest_error = std::abs(pos.z() - goal.z());

@@ -23,6 +23,7 @@ struct PickRecord {
   bool at_target = false;          ///< released by a place (not dropped elsewhere)
   bool placed = false;             ///< evaluated within the tolerances
   double position_error = 0;       ///< [m] horizontal
+  Vec3 offset = Vec3::Zero();      ///< [m] where it rests minus its target (world frame)
   double orientation_error = 0;    ///< [rad] about the object's symmetry
   int grasp_candidates_tried = 0;
   double grasp_opening = 0;        ///< [m] per finger after closing

@@ -24,7 +24,7 @@ const std::string kMock = "run experiments/quickstart.yaml --set hardware=mock -
 TEST(Workers, ASegfaultAndAHangAreRecordedAndEveryOtherTrialRuns) {
   TempDir d;
   const RunResult r = runMinimanip(kMock + " --trials 8 --jobs 2 --set test_faults.segfault=2 --set test_faults.segfault_once=4 "
-                                           "--set test_faults.hang=5 --set watchdog=2 --out " + (d.path() / "out").string());
+                                           "--set test_faults.hang=5 --set watchdog=5 --out " + (d.path() / "out").string());
   ASSERT_EQ(r.code, 0) << r.out;
   const auto t = readTrials(d.path() / "out");
   ASSERT_EQ(t.size(), 8u);
@@ -58,7 +58,7 @@ TEST(Resume, ExtendsACampaignAndDropsAHalfWrittenLine) {
   const std::string out = (d.path() / "out").string();
   ASSERT_EQ(runMinimanip(kMock + " --trials 4 --out " + out).code, 0);
   {  // the supervisor died in the middle of a line
-    std::ofstream(fs::path(out) / "trials.jsonl", std::ios::app) << "{\"schema\":3,\"trial\":4,\"seed";
+    std::ofstream(fs::path(out) / "trials.jsonl", std::ios::app) << "{\"schema\":4,\"trial\":4,\"seed";
   }
   const RunResult r = runMinimanip(kMock + " --trials 7 --out " + out);
   ASSERT_EQ(r.code, 0) << r.out;
