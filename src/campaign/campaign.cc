@@ -269,7 +269,8 @@ struct ResumeState {
 /// but the run-only keys equal). Throws InputError before anything is written when the folder holds
 /// another campaign's results. On resume, trials.jsonl keeps its complete records but those of
 /// crashed or hung trials (run again) and loses a half-written last line.
-ResumeState prepareResults(const Experiment& e, const fs::path& out, const json& fingerprint, const std::string& command) {
+ResumeState prepareResults(const Experiment& e, const fs::path& out, const json& fingerprint, const std::string& command,
+                           const std::function<bool(uint64_t)>& will_run) {
   ResumeState st;
   const fs::path meta = out / "campaign.json", jsonl_path = out / "trials.jsonl";
   if (fs::exists(meta)) {
@@ -284,6 +285,10 @@ ResumeState prepareResults(const Experiment& e, const fs::path& out, const json&
       throw InputError(meta.string(), "these results come from another configuration: " + diff +
                                           ". Resuming needs the same one (the trial count aside): use another --out, "
                                           "or remove the folder to start over");
+    const std::string shard_there = there.value("shard", std::string("0/1"));
+    if (shard_there != e.shard)
+      throw InputError(meta.string(), "these results are shard " + shard_there + " of the campaign, this run is shard " + e.shard +
+                                          ": use the shard's own folder");
     st.resumed = true;
     st.date = there.value("date", localDateTime());
     st.first_command = there.value("command", command);
@@ -311,15 +316,14 @@ ResumeState prepareResults(const Experiment& e, const fs::path& out, const json&
         break;
       }
       const TrialRecord r = fromJsonLine(line, jsonl_path.string() + ":" + std::to_string(number));
-      if (r.o.failure_kind == FailureKind::kCrash || r.o.failure_kind == FailureKind::kHang) {
-        ++st.dropped_lines;
+      if ((r.o.failure_kind == FailureKind::kCrash || r.o.failure_kind == FailureKind::kHang) && will_run(r.trial)) {
+        ++st.dropped_lines;  // run again
         continue;
       }
       if (r.trial >= st.done.size()) st.done.resize(r.trial + 1, 0);
       if (st.done[r.trial]) throw InputError(jsonl_path.string() + ":" + std::to_string(number), "trial " + std::to_string(r.trial) + " is recorded twice");
       st.done[r.trial] = 1;
-      ++st.done_count;
-      st.ok_count += r.o.success;
+      if (will_run(r.trial)) ++st.done_count, st.ok_count += r.o.success;  // this run's part, for the progress
       kept << line << "\n";
     }
     kept.close();
@@ -504,10 +508,7 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
   const json fingerprint = fingerprintOf(e);
   const std::string expected_digest = digest(fingerprint.dump());
   const fs::path out(co.out_dir);
-  ResumeState st = prepareResults(e, out, fingerprint, co.command_line);
-  writeAtomically(out / "config.resolved.yaml", "# " + co.command_line + "\n" + e.params.toYaml());
-
-  std::deque<std::pair<uint64_t, int>> queue;  // trial, attempt
+  // This run's trials: `only` (each once) or all, within the shard.
   std::vector<uint64_t> wanted;
   for (int64_t t : e.only) wanted.push_back(static_cast<uint64_t>(t));
   if (wanted.empty())
@@ -515,6 +516,13 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
   wanted.erase(std::remove_if(wanted.begin(), wanted.end(),
                               [&](uint64_t t) { return static_cast<int>(t % e.shard_count) != e.shard_index; }),
                wanted.end());
+  std::sort(wanted.begin(), wanted.end());
+  wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
+  ResumeState st = prepareResults(e, out, fingerprint, co.command_line,
+                                  [&](uint64_t t) { return std::binary_search(wanted.begin(), wanted.end(), t); });
+  writeAtomically(out / "config.resolved.yaml", "# " + co.command_line + "\n" + e.params.toYaml());
+
+  std::deque<std::pair<uint64_t, int>> queue;  // trial, attempt
   for (uint64_t t : wanted)
     if (t >= st.done.size() || !st.done[t]) queue.emplace_back(t, 1);
   const long before = static_cast<long>(wanted.size() - queue.size());
@@ -531,11 +539,12 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
 
   std::ofstream jsonl(out / "trials.jsonl", std::ios::app | std::ios::binary);
   Progress progress(e.progress, before + run_now, before);
-  long done = before, ok = e.only.empty() && e.shard_count == 1 ? st.ok_count : 0;
+  long done = before, ok = st.ok_count;
   Watchdog watchdog(e.watchdog);
   std::vector<WorkerProcess> workers(static_cast<size_t>(std::max(1, e.jobs)));
   const auto t0 = std::chrono::steady_clock::now();
   std::string fatal;
+  int startup_failures = 0;  // workers in a row that ended before they were ready
 
   auto record = [&](const std::string& line) {
     jsonl << line << "\n";
@@ -556,9 +565,15 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
         how = "its worker process died of " + signalText(WTERMSIG(status));
       else
         how = "its worker process exited with status " + std::to_string(WEXITSTATUS(status)) + (w.error.empty() ? "" : ": " + w.error);
-      if (!w.ready && WIFEXITED(status) && WEXITSTATUS(status) == 2)
-        fatal = "a worker process could not load the experiment (its message is above)";
-      if (w.attempt < 2) {
+      if (!w.ready) {
+        // Not the trial's doing: it goes back as it was. Workers that keep dying while they load
+        // (a broken binary, no memory) stop the campaign instead of failing every trial.
+        queue.emplace_front(w.trial, w.attempt);
+        if (WIFEXITED(status) && WEXITSTATUS(status) == 2)
+          fatal = "a worker process could not load the experiment (its message is above)";
+        else if (++startup_failures >= 3)
+          fatal = "three worker processes in a row ended before they were ready (the last: " + how + ")";
+      } else if (w.attempt < 2) {
         queue.emplace_front(w.trial, w.attempt + 1);
       } else {
         TrialRecord r;
@@ -621,6 +636,7 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
             w.buffer.erase(0, nl + 1);
             if (line.rfind("READY ", 0) == 0) {
               w.ready = true;
+              startup_failures = 0;
               w.started = std::chrono::steady_clock::now();  // the watchdog times the trial, not the worker's start-up
               if (line.substr(6) != expected_digest) fatal = "the experiment's files changed while the campaign ran";
             } else if (line.rfind("ERROR ", 0) == 0) {
@@ -702,7 +718,8 @@ std::string mergeResults(const std::vector<std::string>& dirs, const std::string
       throw InputError((fs::path(dirs[i]) / "campaign.json").string(), "trials is " + std::to_string(metas[i].value("trials", 0L)) +
                                                                          ", " + std::to_string(trials) + " in " + dirs[0]);
   }
-  const fs::path out(out_dir);
+  fs::path out = fs::path(out_dir).lexically_normal();
+  if (!out.has_filename()) out = out.parent_path();  // "dir/" names dir
   if (fs::exists(out) && !(fs::is_directory(out) && fs::is_empty(out)))
     throw InputError(out_dir, "exists and is not empty: merge writes a new folder");
   std::vector<int> owner(static_cast<size_t>(trials), -1);
@@ -740,8 +757,12 @@ std::string mergeResults(const std::vector<std::string>& dirs, const std::string
   }
 
   // Write: trials.jsonl in the folders' order, the tree logs beside it, the summary recomputed.
-  fs::create_directories(out);
-  const fs::path tmp = out / "trials.jsonl.tmp";
+  // Into a folder beside it, renamed into place when complete: a failed merge leaves no half
+  // folder that would block the next one.
+  const fs::path work = out.string() + ".partial";
+  fs::remove_all(work);
+  fs::create_directories(work);
+  const fs::path tmp = work / "trials.jsonl.tmp";
   SummaryBuilder builder;
   {
     std::ofstream jsonl(tmp, std::ios::binary | std::ios::trunc);
@@ -749,28 +770,28 @@ std::string mergeResults(const std::vector<std::string>& dirs, const std::string
       jsonl << line << "\n";
       builder.add(r);
       if (!r.bt_log.empty()) {
-        fs::create_directories((out / r.bt_log).parent_path());
-        fs::copy_file(fs::path(dirs[i]) / r.bt_log, out / r.bt_log, fs::copy_options::overwrite_existing);
+        fs::create_directories((work / r.bt_log).parent_path());
+        fs::copy_file(fs::path(dirs[i]) / r.bt_log, work / r.bt_log, fs::copy_options::overwrite_existing);
       }
     });
     jsonl.flush();
     if (!jsonl) throw std::runtime_error("cannot write " + tmp.string());
   }
-  fs::rename(tmp, out / "trials.jsonl");
+  fs::rename(tmp, work / "trials.jsonl");
   for (const std::string& d : dirs)  // camera renders, when a campaign has them
     if (fs::exists(fs::path(d) / "renders"))
-      fs::copy(fs::path(d) / "renders", out / "renders", fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+      fs::copy(fs::path(d) / "renders", work / "renders", fs::copy_options::recursive | fs::copy_options::overwrite_existing);
   if (fs::exists(fs::path(dirs[0]) / "config.resolved.yaml")) {
     std::ifstream in{fs::path(dirs[0]) / "config.resolved.yaml"};
     std::ostringstream text;
     text << "# " << command << "\n" << in.rdbuf();
-    writeAtomically(out / "config.resolved.yaml", text.str());
+    writeAtomically(work / "config.resolved.yaml", text.str());
   }
   json meta = metas[0];
   meta["command"] = command;
   meta["shard"] = "0/1";
   meta["merged_from"] = dirs;
-  writeAtomically(out / "campaign.json", meta.dump(2) + "\n");
+  writeAtomically(work / "campaign.json", meta.dump(2) + "\n");
 
   CampaignSummary s = builder.get();
   double wall = 0;
@@ -791,7 +812,9 @@ std::string mergeResults(const std::vector<std::string>& dirs, const std::string
   s.wall_seconds = wall;
   s.trials_per_second = wall > 0 ? s.trials / wall : 0.0;
   fillEnvironment(s);
-  writeAtomically(out / "summary.json", toJson(s) + "\n");
+  writeAtomically(work / "summary.json", toJson(s) + "\n");
+  if (fs::exists(out)) fs::remove(out);  // empty (checked above)
+  fs::rename(work, out);
   return summaryTable(s);
 }
 

@@ -389,10 +389,11 @@ void SummaryBuilder::add(const TrialRecord& r) {
   s.collision_events += o.collision_count;
   const long placed = std::count_if(o.picks.begin(), o.picks.end(), [](const PickRecord& p) { return p.placed; });
   s.objects_placed += placed;
-  all_time_ += static_cast<SummaryBuilder::Int128>(std::llround(o.total_time * 1e9));
-  sim_total_ += static_cast<SummaryBuilder::Int128>(std::llround(o.sim_time * 1e9));
+  if (std::isfinite(o.total_time)) all_time_ += static_cast<SummaryBuilder::Int128>(std::llround(o.total_time * 1e9));
+  if (std::isfinite(o.sim_time)) sim_total_ += static_cast<SummaryBuilder::Int128>(std::llround(o.sim_time * 1e9));
   s.objects_left_in_bin += o.objects_left_in_bin;
-  s.bins_cleared += o.objects_left_in_bin == 0;
+  const bool harness_failure = o.failure_kind == FailureKind::kCrash || o.failure_kind == FailureKind::kHang;
+  s.bins_cleared += o.objects_left_in_bin == 0 && !harness_failure;  // a crashed trial's bin is unknown
   s.timeouts += o.tree_status == "TIMEOUT";
   s.crashes += o.failure_kind == FailureKind::kCrash;
   s.hangs += o.failure_kind == FailureKind::kHang;

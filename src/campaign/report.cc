@@ -239,7 +239,7 @@ class Builder {
 };
 
 std::string pct(double v) { return num(100 * v, 1) + "%"; }
-std::string interval(const json& ci) { return "[" + num(100 * ci[0].get<double>(), 1) + ", " + num(100 * ci[1].get<double>(), 1) + "]"; }
+std::string interval(const json& ci) { return "[" + num(100 * ci.at(0).get<double>(), 1) + ", " + num(100 * ci.at(1).get<double>(), 1) + "]"; }
 
 void campaignSections(Builder& b, const json& s, const fs::path& jsonl) {
   // Stream the trials: the cycle times of successes and the placed objects' offsets.
@@ -256,40 +256,40 @@ void campaignSections(Builder& b, const json& s, const fs::path& jsonl) {
     } catch (const std::exception& e) {
       throw InputError(jsonl.string() + ":" + std::to_string(n), std::string("not JSON: ") + e.what());
     }
-    if (t.value("success", false)) cycles.push_back(t["cycle"]["total_time"].get<double>());
+    if (t.value("success", false)) cycles.push_back(t.at("cycle").at("total_time").get<double>());
     for (const json& p : t.value("picks", json::array())) {
       if (!p.value("at_target", false) || !p.contains("offset")) continue;
       ++picks;
-      offsets.push_back({1000 * p["offset"][0].get<double>(), 1000 * p["offset"][1].get<double>(), ""});
+      offsets.push_back({1000 * p.at("offset").at(0).get<double>(), 1000 * p.at("offset").at(1).get<double>(), ""});
     }
   }
 
   b.section("Yields");
-  const auto& fp = s["first_pass_yield"];
-  const auto& ov = s["overall_yield"];
+  const auto& fp = s.at("first_pass_yield");
+  const auto& ov = s.at("overall_yield");
   b.table({"metric", "value", "95% interval (Wilson)", "count"},
-          {{{"first-pass yield", ""}, {pct(fp["value"]), "first_pass_yield"}, {interval(fp["ci95"]), ""},
+          {{{"first-pass yield", ""}, {pct(fp.at("value")), "first_pass_yield"}, {interval(fp.at("ci95")), ""},
             {"without a recovery", ""}},
-           {{"overall yield", ""}, {pct(ov["value"]), "overall_yield"}, {interval(ov["ci95"]), ""},
-            {std::to_string(s["successes"].get<long>()) + " / " + std::to_string(s["trials"].get<long>()), "successes_of_trials"}},
+           {{"overall yield", ""}, {pct(ov.at("value")), "overall_yield"}, {interval(ov.at("ci95")), ""},
+            {std::to_string(s.at("successes").get<long>()) + " / " + std::to_string(s.at("trials").get<long>()), "successes_of_trials"}},
            {{"recovery rate", ""},
-            {s["recovery_rate"].get<double>() < 0 ? "n/a" : pct(s["recovery_rate"]), "recovery_rate"},
+            {s.at("recovery_rate").get<double>() < 0 ? "n/a" : pct(s.at("recovery_rate")), "recovery_rate"},
             {"", ""},
-            {std::to_string(s["recoveries_needed"].get<long>()) + " needed one", ""}}});
+            {std::to_string(s.at("recoveries_needed").get<long>()) + " needed one", ""}}});
   b.table({"metric", "value"},
           {{{"mean cycle time ± std (max)", ""},
-            {num(s["cycle_time"]["mean"], 2) + " ± " + num(s["cycle_time"]["std"], 2) + " s (" + num(s["cycle_time"]["max"], 2) + " s)",
+            {num(s.at("cycle_time").at("mean"), 2) + " ± " + num(s.at("cycle_time").at("std"), 2) + " s (" + num(s.at("cycle_time").at("max"), 2) + " s)",
              "cycle_time"}},
-           {{"throughput", ""}, {num(s["throughput_per_hour"], 0) + " picks/h", "throughput_per_hour"}},
+           {{"throughput", ""}, {num(s.at("throughput_per_hour"), 0) + " picks/h", "throughput_per_hour"}},
            {{"place error mean / max", ""},
-            {num(s["place_position_error_mm"]["mean"], 2) + " / " + num(s["place_position_error_mm"]["max"], 2) + " mm",
+            {num(s.at("place_position_error_mm").at("mean"), 2) + " / " + num(s.at("place_position_error_mm").at("max"), 2) + " mm",
              "place_position_error_mm"}},
-           {{"collision events", ""}, {std::to_string(s["collision_events"].get<long>()), "collision_events"}},
+           {{"collision events", ""}, {std::to_string(s.at("collision_events").get<long>()), "collision_events"}},
            {{"objects placed / left in bins", ""},
-            {std::to_string(s["objects_placed"].get<long>()) + " / " + std::to_string(s["objects_left_in_bin"].get<long>()), "objects"}},
+            {std::to_string(s.at("objects_placed").get<long>()) + " / " + std::to_string(s.at("objects_left_in_bin").get<long>()), "objects"}},
            {{"timeouts / crashes / hangs / unstable", ""},
-            {std::to_string(s["timeouts"].get<long>()) + " / " + std::to_string(s.value("crashes", 0L)) + " / " +
-                 std::to_string(s.value("hangs", 0L)) + " / " + std::to_string(s["sim_unstable"].get<long>()),
+            {std::to_string(s.at("timeouts").get<long>()) + " / " + std::to_string(s.value("crashes", 0L)) + " / " +
+                 std::to_string(s.value("hangs", 0L)) + " / " + std::to_string(s.at("sim_unstable").get<long>()),
              "harness_failures"}}});
 
   b.section("Cycle time");
@@ -301,7 +301,7 @@ void campaignSections(Builder& b, const json& s, const fs::path& jsonl) {
       {"execute_pick_time", "execute pick (sim)"},   {"plan_place_time", "plan place (compute)"},
       {"execute_place_time", "execute place (sim)"}, {"return_home_time", "return home (plan + sim)"}};
   for (const auto& [k, label] : names) {
-    const double v = s["mean_time_breakdown"].value(k, 0.0);
+    const double v = s.at("mean_time_breakdown").value(k, 0.0);
     parts.push_back({label, v, NAN, NAN, v < 0.1 ? num(1000 * v, 1) + " ms" : num(v, 2) + " s"});
   }
   b.figure("stage_breakdown", barChart("stage_breakdown", parts, "mean over successful trials [s]"),
@@ -309,7 +309,7 @@ void campaignSections(Builder& b, const json& s, const fs::path& jsonl) {
 
   b.section("Failures");
   std::vector<Bar> stages;
-  for (const auto& [stage, count] : s["failure_stages"].items())
+  for (const auto& [stage, count] : s.at("failure_stages").items())
     stages.push_back({stage, count.get<double>(), NAN, NAN, std::to_string(count.get<long>())});
   if (stages.empty()) b.para("No trial failed.");
   else b.figure("failure_stages", barChart("failure_stages", stages, "failed trials"), "Failed trials by the stage that failed.");
@@ -320,39 +320,39 @@ void campaignSections(Builder& b, const json& s, const fs::path& jsonl) {
            "Where each of the " + std::to_string(picks) + " objects let go of over its target came to rest, relative to the "
            "target (world x, y; the dashed circle is the 5 mm tolerance).");
 
-  if (!s["faults"].empty()) {
+  if (!s.at("faults").empty()) {
     b.section("Recovery per fault kind");
     std::vector<Bar> bars;
     std::vector<std::vector<std::pair<std::string, std::string>>> rows;
-    for (const json& f : s["faults"]) {
-      const double r = f["recovery"].get<double>();
-      const std::string kind = f["kind"];
-      if (r >= 0) bars.push_back({kind, 100 * r, 100 * f["ci95"][0].get<double>(), 100 * f["ci95"][1].get<double>(), pct(r)});
-      rows.push_back({{kind, ""}, {std::to_string(f["injected"].get<long>()), ""}, {std::to_string(f["detected"].get<long>()), ""},
+    for (const json& f : s.at("faults")) {
+      const double r = f.at("recovery").get<double>();
+      const std::string kind = f.at("kind");
+      if (r >= 0) bars.push_back({kind, 100 * r, 100 * f.at("ci95").at(0).get<double>(), 100 * f.at("ci95").at(1).get<double>(), pct(r)});
+      rows.push_back({{kind, ""}, {std::to_string(f.at("injected").get<long>()), ""}, {std::to_string(f.at("detected").get<long>()), ""},
                       {r < 0 ? "none judged" : pct(r), "recovery." + kind},
-                      {r < 0 ? "" : interval(f["ci95"]), ""},
-                      {f["mttr_mean"].get<double>() < 0 ? "" : num(f["mttr_mean"], 2) + " s", ""}});
+                      {r < 0 ? "" : interval(f.at("ci95")), ""},
+                      {f.at("mttr_mean").get<double>() < 0 ? "" : num(f.at("mttr_mean"), 2) + " s", ""}});
     }
     b.table({"fault", "injected", "detected", "recovered (or correctly given up)", "95% interval", "MTTR"}, rows);
     b.figure("fault_recovery", barChart("fault_recovery", bars, "recovered or correctly given up [%] (whiskers: Wilson 95%)", 100),
              "Recovery per injected fault kind.");
-    b.para("MTBF: " + (s["mtbf"].get<double>() < 0 ? std::string("no unrecovered failure") : num(s["mtbf"], 1) + " s simulated") +
-           "; protective stops: " + std::to_string(s["protective_stops"].get<long>()) + ".");
+    b.para("MTBF: " + (s.at("mtbf").get<double>() < 0 ? std::string("no unrecovered failure") : num(s.at("mtbf"), 1) + " s simulated") +
+           "; protective stops: " + std::to_string(s.at("protective_stops").get<long>()) + ".");
   }
 }
 
 void ikSections(Builder& b, const json& j) {
   b.section("IK solvers (ik-bench)");
   b.para("Command: " + j.value("command", std::string("?")) + "; seed " + std::to_string(j.value("seed", 0)) + "; " +
-         std::to_string(j.value("poses_per_set", 0)) + " poses per set; machine: " + j["machine"].value("cpu", std::string("?")) +
-         ", " + std::to_string(j["machine"].value("cores", 0)) + " cores.");
-  for (const auto& [set, solvers] : j["sets"].items()) {
+         std::to_string(j.value("poses_per_set", 0)) + " poses per set; machine: " + j.at("machine").value("cpu", std::string("?")) +
+         ", " + std::to_string(j.at("machine").value("cores", 0)) + " cores.");
+  for (const auto& [set, solvers] : j.at("sets").items()) {
     std::vector<Point> pts;
     std::vector<std::vector<std::pair<std::string, std::string>>> rows;
     for (const json& r : solvers) {
-      pts.push_back({r["time_us"]["mean"].get<double>(), 100 * r["success"].get<double>(), r["solver"].get<std::string>()});
-      rows.push_back({{r["solver"], ""}, {pct(r["success"]), ""}, {interval(r["ci95"]), ""}, {num(r["time_us"]["mean"], 1), ""},
-                      {num(r["time_us"]["p99"], 1), ""}});
+      pts.push_back({r.at("time_us").at("mean").get<double>(), 100 * r.at("success").get<double>(), r.at("solver").get<std::string>()});
+      rows.push_back({{r.at("solver"), ""}, {pct(r.at("success")), ""}, {interval(r.at("ci95")), ""}, {num(r.at("time_us").at("mean"), 1), ""},
+                      {num(r.at("time_us").at("p99"), 1), ""}});
     }
     b.table({"solver (" + set + ")", "success", "95% interval", "mean µs", "p99 µs"}, rows);
     b.figure("ik_" + set, scatter("ik_" + set, pts, "mean time per solve [µs] (log)", "success [%]", false, 0, true),
@@ -364,14 +364,14 @@ void planSections(Builder& b, const json& j) {
   b.section("Planners and collision checkers (plan-bench)");
   b.para("Command: " + j.value("command", std::string("?")) + "; seed " + std::to_string(j.value("seed", 0)) + "; " +
          std::to_string(j.value("problems", 0)) + " problems (" + j.value("problem_set", std::string("?")) + "); machine: " +
-         j["machine"].value("cpu", std::string("?")) + ", " + std::to_string(j["machine"].value("cores", 0)) + " cores.");
+         j.at("machine").value("cpu", std::string("?")) + ", " + std::to_string(j.at("machine").value("cores", 0)) + " cores.");
   std::vector<Point> pts;
   std::vector<std::vector<std::pair<std::string, std::string>>> rows;
-  for (const json& c : j["combinations"]) {
-    const std::string name = c["planner"].get<std::string>() + " + " + c["checker"].get<std::string>();
-    pts.push_back({c["plan_ms"]["mean"].get<double>(), 100 * c["success"].get<double>(), name});
-    rows.push_back({{c["planner"], ""}, {c["checker"], ""}, {pct(c["success"]), ""}, {interval(c["ci95"]), ""},
-                    {num(c["plan_ms"]["mean"], 1), ""}, {num(c["path_length_mean"], 2), ""}});
+  for (const json& c : j.at("combinations")) {
+    const std::string name = c.at("planner").get<std::string>() + " + " + c.at("checker").get<std::string>();
+    pts.push_back({c.at("plan_ms").at("mean").get<double>(), 100 * c.at("success").get<double>(), name});
+    rows.push_back({{c.at("planner"), ""}, {c.at("checker"), ""}, {pct(c.at("success")), ""}, {interval(c.at("ci95")), ""},
+                    {num(c.at("plan_ms").at("mean"), 1), ""}, {num(c.at("path_length_mean"), 2), ""}});
   }
   b.table({"planner", "checker", "success", "95% interval", "plan ms mean", "path length (rad)"}, rows);
   b.figure("plan_success_time", scatter("plan_success_time", pts, "mean planning time [ms] (log)", "success [%]", false, 0, true),
@@ -380,11 +380,10 @@ void planSections(Builder& b, const json& j) {
 
 void writeFile(const fs::path& p, const std::string& text) {
   const fs::path tmp = p.string() + ".tmp";
-  {
-    std::ofstream out(tmp);
-    out << text;
-    if (!out) throw std::runtime_error("cannot write " + tmp.string());
-  }
+  std::ofstream out(tmp);
+  out << text;
+  out.close();
+  if (!out) throw std::runtime_error("cannot write " + tmp.string());
   fs::rename(tmp, p);
 }
 
@@ -407,11 +406,12 @@ std::string writeReport(const ReportOptions& o) {
     throw InputError(dir.string(), std::string("a results file lacks what the report reads: ") + e.what());
   }
 
-  const json& env = s["environment"];
+  if (!s.contains("environment") || !s.contains("trials")) throw InputError((dir / "summary.json").string(), "not a campaign summary");
+  const json& env = s.at("environment");
   const std::string title = "Mini-Manip Bench: " + s.value("experiment", std::string("campaign"));
   const std::string facts = "Command: " + s.value("command", std::string("?")) + " · seed " + std::to_string(s.value("seed", 0UL)) +
                             " · " + s.value("hardware", std::string("?")) + " · tree " + s.value("tree", std::string("?")) +
-                            " · " + std::to_string(s["trials"].get<long>()) + " trials";
+                            " · " + std::to_string(s.at("trials").get<long>()) + " trials";
   const std::string machine = "Machine: " + env.value("cpu", std::string("?")) + ", " + std::to_string(env.value("cores", 0L)) +
                               " cores, host " + env.value("host", std::string("?")) + ", " + std::to_string(env.value("jobs", 0L)) +
                               " worker processes · minimanip " + env.value("minimanip", std::string("?")) + ", MuJoCo " +

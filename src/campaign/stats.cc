@@ -43,8 +43,10 @@ Moments ExactMoments::get() const {
   Moments m;
   m.n = n_;
   if (n_ == 0) return m;
-  // n*sum_sq - sum^2 is exact in integers, then scaled once: no cancellation.
-  const Int128 var_num = static_cast<Int128>(n_) * sum_sq_ - sum_ * sum_;
+  // n*sum_sq - sum^2 from the exact sums, in long double (64-bit mantissa; the integer products
+  // could overflow): the same inputs give the same result in any order.
+  const long double var_num = static_cast<long double>(n_) * static_cast<long double>(sum_sq_) -
+                              static_cast<long double>(sum_) * static_cast<long double>(sum_);
   m.mean = static_cast<double>(sum_) / 1e9 / n_;
   m.std = std::sqrt(std::max(0.0, static_cast<double>(var_num))) / 1e9 / n_;
   m.min = min_, m.max = max_;

@@ -18,8 +18,9 @@ Moments moments(const std::vector<double>& v);
 /// Running moments in constant memory whose result does not depend on the order of the values
 /// (a campaign's trials arrive in any order from its workers, its shards in any order at a merge):
 /// values are summed as exact integers of 1e-9 (their squares of 1e-18), so the sums are exact and
-/// associative; the mean and deviation agree with moments() to ~1e-9 of a unit. Sized for values
-/// below 1e4 in magnitude and up to 1e7 of them; non-finite values are skipped.
+/// associative; the mean and deviation agree with moments() to ~1e-9 of a unit. The sum of squares
+/// holds 1e7 values of magnitude up to ~1e5 (it overflows past ~1.7e38 / 1e18); non-finite values
+/// are skipped.
 class ExactMoments {
  public:
   void add(double x);

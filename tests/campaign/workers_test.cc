@@ -90,6 +90,33 @@ TEST(Resume, AnotherConfigurationIsRefusedNamingWhatDiffers) {
   EXPECT_EQ(json::parse(std::ifstream(fs::path(out) / "summary.json")).dump(), before) << "a refused run must not touch the results";
 }
 
+// A resume runs again only what this run asks for: crashed trials outside --only stay recorded (and
+// a crashed trial's unknown bin is not counted as emptied); --only lists a trial once however
+// often it is named; a shard's folder is not resumed as another shard.
+TEST(Resume, RunsAgainOnlyWhatItIsAskedFor) {
+  TempDir d;
+  const std::string out = (d.path() / "out").string();
+  ASSERT_EQ(runMinimanip(kMock + " --trials 3 --set test_faults.segfault=1 --out " + out).code, 0);
+  json s = json::parse(std::ifstream(fs::path(out) / "summary.json"));
+  EXPECT_EQ(s["crashes"], 1);
+  const auto first = readTrials(out);
+  EXPECT_EQ(s["bins_cleared"].get<long>(), static_cast<long>(std::count_if(first.begin(), first.end(), [](const json& t) {
+              return t["objects_left_in_bin"] == 0 && t["failure_kind"] != "crash";
+            })));
+  ASSERT_EQ(runMinimanip(kMock + " --trials 3 --set test_faults.segfault=1 --only 0,0 --out " + out).code, 0);
+  auto t = readTrials(out);
+  ASSERT_EQ(t.size(), 3u);
+  EXPECT_EQ(t[1]["failure_kind"], "crash");
+  s = json::parse(std::ifstream(fs::path(out) / "summary.json"));
+  EXPECT_EQ(s["trials"], 3);
+  const RunResult other = runMinimanip(kMock + " --trials 3 --set test_faults.segfault=1 --shard 1/2 --out " + out);
+  EXPECT_EQ(other.code, 2) << other.out;
+  EXPECT_THAT(other.out, HasSubstr("shard 0/1 of the campaign, this run is shard 1/2"));
+  const std::string dup = (d.path() / "dup").string();
+  ASSERT_EQ(runMinimanip(kMock + " --trials 3 --only 1,1 --jobs 2 --out " + dup).code, 0);
+  EXPECT_EQ(readTrials(dup).size(), 1u);
+}
+
 pid_t startMinimanip(const std::string& args) {
   const pid_t pid = fork();
   if (pid == 0) {
