@@ -14,6 +14,7 @@
 #include "campaign/ik_bench.h"
 #include "campaign/plan_bench.h"
 #include "campaign/record.h"
+#include "campaign/gate.h"
 #include "campaign/report.h"
 #include "campaign/trial.h"
 #include "core/config.h"
@@ -122,6 +123,15 @@ int main(int argc, char** argv) {
   report->add_option("--ik-bench", report_opts.ik_bench, "also an ik-bench results folder (ik_bench.json)");
   report->add_option("--plan-bench", report_opts.plan_bench, "also a plan-bench results folder (plan_bench.json)");
 
+  mm::GateOptions gate_opts;
+  CLI::App* gate = app.add_subcommand("gate", "judge a campaign for CI: yields (Wilson lower bounds), limits, and against a baseline "
+                                              "paired success (McNemar), exact work counters and wall timings (Mann-Whitney + ratio); "
+                                              "exit 0 pass, 1 regression, 2 bad input");
+  gate->add_option("results", gate_opts.results_dir, "the campaign's results folder")->required();
+  gate->add_option("--thresholds", gate_opts.thresholds, "thresholds file (experiments/gates/*.yaml; keys: minimanip gate-doc)");
+  gate->add_option("--baseline", gate_opts.baseline, "a baseline file or results folder (overrides the thresholds' baseline.file)");
+  gate->add_option("--save-baseline", gate_opts.save_baseline, "write the results' baseline file (per-trial success, counters, timings)");
+
   // The worker process of a campaign (started by `run`, not by people): hidden from --help.
   RunArgs worker_args;
   CLI::App* worker = app.add_subcommand("worker", "");
@@ -133,11 +143,12 @@ int main(int argc, char** argv) {
   CLI::App* config_doc = app.add_subcommand("config-doc", "print every experiment key as a Markdown table");
   CLI::App* nodes_doc = app.add_subcommand("nodes-doc", "print the behavior-tree node library as a Markdown table");
   CLI::App* results_doc = app.add_subcommand("results-doc", "print the fields of trials.jsonl and summary.json as Markdown");
+  CLI::App* gate_doc = app.add_subcommand("gate-doc", "print every key of a gate's thresholds file as a Markdown table");
 
   try {
-    const std::vector<std::string> commands = {"run", "bench", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc", "merge", "report", "worker"};
+    const std::vector<std::string> commands = {"run", "bench", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc", "merge", "report", "gate", "gate-doc", "worker"};
     if (argc > 1 && argv[1][0] != '-' && std::find(commands.begin(), commands.end(), argv[1]) == commands.end())
-      throw mm::InputError(argv[1], "unknown command (expected run, bench, merge, report, ik-bench, plan-bench, config-doc, nodes-doc or results-doc; --help)");
+      throw mm::InputError(argv[1], "unknown command (expected run, bench, merge, report, gate, ik-bench, plan-bench, config-doc, nodes-doc, results-doc or gate-doc; --help)");
     try {
       app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -149,6 +160,15 @@ int main(int argc, char** argv) {
     }
     if (report->parsed()) {
       std::cout << "Report: " << mm::writeReport(report_opts) << " (and report.md, report_figures/)\n";
+      return 0;
+    }
+    if (gate->parsed()) {
+      const mm::GateResult g = mm::runGate(gate_opts);
+      std::cout << g.text;
+      return g.exit_code;
+    }
+    if (gate_doc->parsed()) {
+      std::cout << mm::ParamSet(mm::gateParams()).toMarkdown();
       return 0;
     }
     if (merge->parsed()) {

@@ -74,6 +74,9 @@ void PlannerOptions::declare(ConfigArchive& a) {
   a.value("time_limit", time_limit, {0.01, 600.0}, "s", "wall-clock cap per planning call (reaching it is recorded)");
   a.value("simplify", simplify, "shortcut and reduce the planned path");
   a.value("resolution", resolution, {0.001, 0.2}, "rad", "edge validation step");
+  a.value("test_slowdown", test_slowdown, {1, 1000}, "",
+          "test only: the planner checks each state this many times (a deliberately slowed planner: the same paths, more "
+          "collision checks and wall time; the gate's test)");
 }
 
 std::vector<std::string> plannerNames() {
@@ -128,6 +131,7 @@ PlanResult planJointPath(const RobotModel& robot, CollisionChecker& checker, con
   si->setStateValidityChecker([&](const ob::State* st) {
     const double* v = st->as<ob::RealVectorStateSpace::StateType>()->values;
     for (int i = 0; i < n; ++i) qs[i] = v[i];
+    for (int k = 1; k < o.test_slowdown; ++k) checker.isValid(qs);
     return checker.isValid(qs);
   });
   si->setStateValidityCheckingResolution(o.resolution / space->getMaximumExtent());

@@ -25,6 +25,9 @@ struct PlannerOptions {
   double resolution = 0.02;       ///< [rad] edge validation step (joint-space distance)
   bool simplify = true;           ///< shortcut and vertex reduction after planning
   int simplify_steps = 100;       ///< shortcutting attempts
+  /// Test only: each state the planner validates is checked this many times (a deliberately slowed
+  /// planner, for the gate's test: same paths, more collision checks and wall time).
+  int test_slowdown = 1;
 };
 
 struct PlanResult {
