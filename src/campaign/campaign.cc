@@ -497,14 +497,16 @@ int runWorker(const Experiment& e, const std::string& out_dir) {
   return 0;
 }
 
+void checkCampaignInput(const Experiment& e) {
+  const RobotModel robot = RobotModel::load(e.robot_path);
+  const auto world = SimWorld::load(e.scene_path, robot);
+  makeCell(e, robot, *world);
+  loadTree(e);
+}
+
 std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
   // Everything that can be bad input is loaded and checked before anything is written.
-  {
-    const RobotModel robot = RobotModel::load(e.robot_path);
-    const auto world = SimWorld::load(e.scene_path, robot);
-    makeCell(e, robot, *world);
-    loadTree(e);
-  }
+  checkCampaignInput(e);
   const json fingerprint = fingerprintOf(e);
   const std::string expected_digest = digest(fingerprint.dump());
   const fs::path out(co.out_dir);

@@ -18,6 +18,10 @@ struct CampaignOptions {
   std::string worker_binary;  ///< the minimanip executable run as workers (default: this process's)
 };
 
+/// Loads the robot, the scene and the tree as a campaign would and checks the experiment against
+/// them (an object count the scene cannot hold, ...): bad input throws InputError.
+void checkCampaignInput(const Experiment& experiment);
+
 /// Loads the robot and scene (input errors throw InputError before anything is written), then
 /// runs the trials in `jobs` worker processes (`minimanip worker`) and writes the summary. A
 /// results folder that holds the same campaign (campaign.json) is resumed: its finished trials are

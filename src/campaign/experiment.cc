@@ -1,5 +1,6 @@
 #include "campaign/experiment.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -67,7 +68,21 @@ std::string resolvePath(const std::string& path, const std::string& origin) {
   return (std::filesystem::path(origin).parent_path() / v).lexically_normal().string();
 }
 
-Experiment loadExperiment(const std::string& path, const std::vector<std::string>& sets) {
+std::vector<std::vector<std::string>> sweepCells(const std::vector<ParamSet::Sweep>& sweep) {
+  std::vector<std::vector<std::string>> cells{{}};
+  for (const ParamSet::Sweep& f : sweep) {
+    std::vector<std::vector<std::string>> next;
+    for (const auto& c : cells)
+      for (const std::string& v : f.values) {
+        next.push_back(c);
+        next.back().push_back(f.key + "=" + v);
+      }
+    cells = std::move(next);
+  }
+  return cells;
+}
+
+Experiment loadExperiment(const std::string& path, const std::vector<std::string>& sets, const std::vector<std::string>& sweeps) {
   Experiment e;
   ParamSet p(experimentParams());
   p.loadYamlFile(path);
@@ -76,9 +91,24 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
     if (eq == std::string::npos || eq == 0) throw InputError("--set " + s, "expected key=value");
     p.set(s.substr(0, eq), s.substr(eq + 1), "--set " + s.substr(0, eq), "");
   }
+  for (const std::string& s : sweeps) {
+    const auto eq = s.find('=');
+    if (eq == std::string::npos || eq == 0) throw InputError("--sweep " + s, "expected key=value,value,...");
+    p.addSweep(s.substr(0, eq), splitCommas(s.substr(eq + 1)), "--sweep " + s.substr(0, eq));
+  }
+  // Keys that shape the campaign rather than its trials cannot be factors.
+  for (const ParamSet::Sweep& f : p.sweeps()) {
+    static const std::vector<std::string> fixed = {"name", "trials", "seed", "jobs", "shard", "watchdog", "progress", "bt.log"};
+    if (std::find(fixed.begin(), fixed.end(), f.key) != fixed.end() || f.key.rfind("test_faults.", 0) == 0)
+      throw InputError(f.where, "'" + f.key + "' cannot be swept (it shapes the campaign, not its trials; seeds are shared by design)");
+  }
+  if (sweepCells(p.sweeps()).size() > 256)
+    throw InputError(p.sweeps().front().where, "the sweep has " + std::to_string(sweepCells(p.sweeps()).size()) +
+                                                   " cells, expected at most 256");
   readConfig(p, [&](ConfigArchive& a) { e.declare(a); },
              [&](const std::string& key, const std::string& value) { return resolvePath(value, p.origin(key)); });
   e.file = path;
+  e.sweep = p.sweeps();
   e.params = std::move(p);
   e.sets = sets;
   if (e.spawn.count_min > e.spawn.count_max)

@@ -47,6 +47,9 @@ struct Experiment {
   } test_faults;
   ParamSet params{{}};  ///< every value as used (for config.resolved.yaml)
   std::vector<std::string> sets;  ///< the "key=value" overrides it was loaded with (worker processes load the same)
+  /// The factors of a sweep (the file's `sweep:` map, then --sweep key=a,b,c): the campaign runs
+  /// once per cell of their grid, on the same seed, each cell a results folder of its own.
+  std::vector<ParamSet::Sweep> sweep;
 
   /// Every key of an experiment file, in the order of the config reference.
   void declare(ConfigArchive& a);
@@ -55,8 +58,14 @@ struct Experiment {
 /// The declarations (also printed by `minimanip config-doc` for the README).
 std::vector<ParamDecl> experimentParams();
 
-/// Loads `path`, applies `sets` ("key=value"), validates. Throws InputError (exit code 2).
-Experiment loadExperiment(const std::string& path, const std::vector<std::string>& sets);
+/// Loads `path`, applies `sets` ("key=value") and `sweeps` ("key=a,b,c", added to the file's
+/// sweep), validates. Throws InputError (exit code 2).
+Experiment loadExperiment(const std::string& path, const std::vector<std::string>& sets,
+                          const std::vector<std::string>& sweeps = {});
+
+/// A sweep's cells: every combination of its factors' values (the first factor varies slowest),
+/// each as the "key=value" settings that make it.
+std::vector<std::vector<std::string>> sweepCells(const std::vector<ParamSet::Sweep>& sweep);
 
 /// A relative path as the configuration resolves it: against the folder of the file that set it,
 /// the working directory when set by --set (origin ""), the project root when left default.

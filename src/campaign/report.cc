@@ -10,6 +10,7 @@
 #include <sstream>
 #include <vector>
 
+#include "campaign/stats.h"
 #include "core/error.h"
 
 namespace mm {
@@ -378,6 +379,95 @@ void planSections(Builder& b, const json& j) {
            "Planners × collision checkers on the same problems: success against mean planning time.");
 }
 
+// ---- a sweep: yield, recovery and cycle time against each factor ---------------------------------
+
+struct Pool {
+  long trials = 0, successes = 0, needed = 0, recovered = 0;
+  double cycle_sum = 0;  ///< over successes
+};
+
+void addCell(Pool& p, const json& s) {
+  const long n = s.at("trials").get<long>(), k = s.at("successes").get<long>(), need = s.at("recoveries_needed").get<long>();
+  p.trials += n;
+  p.successes += k;
+  p.needed += need;
+  if (need > 0) p.recovered += std::lround(s.at("recovery_rate").get<double>() * need);
+  if (k > 0) p.cycle_sum += s.at("cycle_time").at("mean").get<double>() * k;
+}
+
+std::string settingsText(const json& settings, const json& factors) {
+  std::string t;  // in the factors' order
+  for (const json& f : factors) {
+    const std::string k = f.at("key").get<std::string>();
+    t += (t.empty() ? "" : ", ") + k + " = " + settings.at(k).get<std::string>();
+  }
+  return t;
+}
+
+/// The sections of a sweep's report; returns the first cell's summary (for the machine line).
+json sweepSections(Builder& b, const fs::path& dir, const json& sweep) {
+  std::vector<json> summaries;
+  for (const json& c : sweep.at("cells")) {
+    const fs::path sp = dir / c.at("dir").get<std::string>() / "summary.json";
+    if (!fs::exists(sp))
+      throw InputError(sp.string(), "not found: the sweep has not finished this cell (run the same command again to resume)");
+    summaries.push_back(readJson(sp));
+  }
+  b.section("Cells");
+  b.para("Every cell runs the same " + std::to_string(sweep.at("trials").get<long>()) + " trial indices of seed " +
+         std::to_string(sweep.at("seed").get<unsigned long>()) +
+         " (the same scenes and random streams wherever a factor leaves them alone); each cell's folder is a campaign's "
+         "results folder of its own (its report, its gate).");
+  std::vector<std::vector<std::pair<std::string, std::string>>> rows;
+  for (size_t i = 0; i < summaries.size(); ++i) {
+    const json& c = sweep.at("cells").at(i);
+    const json& s = summaries[i];
+    const double rr = s.at("recovery_rate").get<double>();
+    rows.push_back({{c.at("dir").get<std::string>(), ""},
+                    {settingsText(c.at("settings"), sweep.at("factors")), ""},
+                    {std::to_string(s.at("trials").get<long>()), ""},
+                    {pct(s.at("overall_yield").at("value").get<double>()), "cell" + std::to_string(i) + ".yield"},
+                    {interval(s.at("overall_yield").at("ci95")), ""},
+                    {rr < 0 ? "-" : pct(rr), ""},
+                    {s.at("successes").get<long>() > 0 ? num(s.at("cycle_time").at("mean").get<double>(), 2) + " s" : "-", ""}});
+  }
+  b.table({"cell", "settings", "trials", "overall yield", "95% CI", "recovery", "mean cycle"}, rows);
+
+  size_t fi = 0;
+  for (const json& f : sweep.at("factors")) {
+    const std::string key = f.at("key").get<std::string>();
+    b.section("Against " + key);
+    b.para("Each value pools every cell with it (the other factors' cells alike: a full grid), so each bar holds " +
+           std::to_string(summaries.size() / f.at("values").size()) + " cells' trials; whiskers are Wilson 95% intervals.");
+    std::vector<Bar> yield, recovery, cycle;
+    for (const json& v : f.at("values")) {
+      Pool p;
+      for (size_t i = 0; i < summaries.size(); ++i)
+        if (sweep.at("cells").at(i).at("settings").at(key) == v) addCell(p, summaries[i]);
+      const std::string label = key.substr(key.rfind('.') + 1) + " = " + v.get<std::string>();
+      const auto ci = wilson95(p.successes, p.trials);
+      yield.push_back({label, p.trials ? double(p.successes) / p.trials : 0, ci.first, ci.second,
+                       std::to_string(p.successes) + "/" + std::to_string(p.trials) + " = " +
+                           pct(p.trials ? double(p.successes) / p.trials : 0)});
+      if (p.needed > 0) {
+        const auto rc = wilson95(p.recovered, p.needed);
+        recovery.push_back({label, double(p.recovered) / p.needed, rc.first, rc.second,
+                            std::to_string(p.recovered) + "/" + std::to_string(p.needed) + " = " + pct(double(p.recovered) / p.needed)});
+      } else {
+        recovery.push_back({label, 0, NAN, NAN, "none needed"});
+      }
+      const double cm = p.successes ? p.cycle_sum / p.successes : 0;
+      cycle.push_back({label, cm, NAN, NAN, p.successes ? num(cm, 2) + " s" : "no success"});
+    }
+    const std::string id = "sweep" + std::to_string(fi++);
+    b.figure(id + "_yield", barChart(id + "_yield", yield, "overall yield", 1.0), "Overall yield against " + key);
+    b.figure(id + "_recovery", barChart(id + "_recovery", recovery, "recovery rate (recovered / recoveries needed)", 1.0),
+             "Recovery against " + key);
+    b.figure(id + "_cycle", barChart(id + "_cycle", cycle, "mean cycle time of successes (s)"), "Cycle time against " + key);
+  }
+  return summaries.front();
+}
+
 void writeFile(const fs::path& p, const std::string& text) {
   const fs::path tmp = p.string() + ".tmp";
   std::ofstream out(tmp);
@@ -391,15 +481,27 @@ void writeFile(const fs::path& p, const std::string& text) {
 
 std::string writeReport(const ReportOptions& o) {
   const fs::path dir(o.results_dir);
-  const json s = readJson(dir / "summary.json");
-  if (!fs::exists(dir / "trials.jsonl")) throw InputError((dir / "trials.jsonl").string(), "not found");
+  const bool is_sweep = !fs::exists(dir / "summary.json") && fs::exists(dir / "sweep.json");
+  const json sweep = is_sweep ? readJson(dir / "sweep.json") : json();
+  json s = is_sweep ? json() : readJson(dir / "summary.json");
+  if (!is_sweep && !fs::exists(dir / "trials.jsonl")) throw InputError((dir / "trials.jsonl").string(), "not found");
   json ik, plan;
   if (!o.ik_bench.empty()) ik = readJson(fs::path(o.ik_bench) / "ik_bench.json");
   if (!o.plan_bench.empty()) plan = readJson(fs::path(o.plan_bench) / "plan_bench.json");
 
   Builder b(dir / "report_figures");
   try {
-    campaignSections(b, s, dir / "trials.jsonl");
+    if (is_sweep) {
+      s = sweepSections(b, dir, sweep);
+      // The page's facts are the sweep's; the machine is the first cell's.
+      s["experiment"] = "sweep of " + sweep.at("experiment").get<std::string>();
+      std::string factors;
+      for (const json& f : sweep.at("factors")) factors += (factors.empty() ? "" : " x ") + f.at("key").get<std::string>();
+      s["tree"] = s.value("tree", std::string("?")) + " · factors " + factors + " · " + std::to_string(sweep.at("cells").size()) + " cells";
+      s["trials"] = sweep.at("trials").get<long>() * static_cast<long>(sweep.at("cells").size());
+    } else {
+      campaignSections(b, s, dir / "trials.jsonl");
+    }
     if (!ik.is_null()) ikSections(b, ik);
     if (!plan.is_null()) planSections(b, plan);
   } catch (const json::exception& e) {

@@ -16,6 +16,7 @@
 #include "campaign/record.h"
 #include "campaign/gate.h"
 #include "campaign/report.h"
+#include "campaign/sweep.h"
 #include "campaign/trial.h"
 #include "core/config.h"
 #include "core/error.h"
@@ -25,7 +26,7 @@ namespace {
 // `run` and `bench`: an experiment file, a few shortcuts and --set key=value.
 struct RunArgs {
   std::string file, out, trials, seed, jobs, only, shard;
-  std::vector<std::string> sets;
+  std::vector<std::string> sets, sweeps;
 };
 
 void addRunOptions(CLI::App* sub, RunArgs& r, bool with_out) {
@@ -37,6 +38,9 @@ void addRunOptions(CLI::App* sub, RunArgs& r, bool with_out) {
   sub->add_option("--shard", r.shard, "K/N: only the trials with index % N == K (= --set shard=K/N)");
   if (with_out) sub->add_option("--out", r.out, "results folder (default results/<name>)");
   sub->add_option("--set", r.sets, "key=value, any experiment key (repeatable)")->allow_extra_args(false);
+  if (with_out)
+    sub->add_option("--sweep", r.sweeps, "key=a,b,c: run the campaign for each value (repeatable: the grid of all); = the file's sweep: map")
+        ->allow_extra_args(false);
 }
 
 mm::Experiment loadRun(const RunArgs& r) {
@@ -47,7 +51,7 @@ mm::Experiment loadRun(const RunArgs& r) {
   if (!r.only.empty()) sets.push_back("only=" + r.only);
   if (!r.shard.empty()) sets.push_back("shard=" + r.shard);
   sets.insert(sets.end(), r.sets.begin(), r.sets.end());
-  return mm::loadExperiment(r.file, sets);
+  return mm::loadExperiment(r.file, sets, r.sweeps);
 }
 
 // A subcommand whose options are a struct's declarations: --key value (underscores as dashes).
@@ -181,12 +185,18 @@ int main(int argc, char** argv) {
       const RunArgs& r = run->parsed() ? run_args : bench_args;
       const mm::Experiment e = loadRun(r);
       if (bench->parsed()) {
+        if (!e.sweep.empty()) throw mm::InputError(e.sweep.front().where, "bench does not sweep (run a sweep with minimanip run)");
         std::cout << mm::benchmarkHarness(e, command_line);
         return 0;
       }
       mm::CampaignOptions co;
       co.out_dir = r.out.empty() ? "results/" + e.name : r.out;
       co.command_line = command_line;
+      if (!e.sweep.empty()) {
+        const std::string table = mm::runSweep(e, co);
+        std::cout << table << "Results: " << co.out_dir << "/ (sweep.json, cell_<i>/: each a campaign's results folder)\n";
+        return 0;
+      }
       const std::string table = mm::runCampaign(e, co);
       std::cout << table << "Results: " << co.out_dir << "/ (trials.jsonl, summary.json, config.resolved.yaml, bt/)\n";
       return 0;

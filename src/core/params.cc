@@ -201,6 +201,23 @@ void ParamSet::loadYamlFile(const std::string& path) {
   }
   if (root.IsNull()) throw InputError(path, "empty file (expected a YAML map of settings)");
   if (!root.IsMap()) throw InputError(path + ":1:1", "expected a YAML map of settings at the top");
+  if (const YAML::Node sweep = root["sweep"]) {
+    const std::string at = path + ":" + std::to_string(sweep.Mark().line + 1) + ":" + std::to_string(sweep.Mark().column + 1);
+    if (!sweep.IsMap()) throw InputError(at, "'sweep' expects a map of keys to lists of values (objects.count_max: [1, 3, 5])");
+    for (auto it = sweep.begin(); it != sweep.end(); ++it) {
+      const YAML::Mark mark = it->first.Mark();
+      const std::string where = path + ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1);
+      const YAML::Node v = it->second;
+      if (!v.IsSequence()) throw InputError(where, "a swept key expects a list of values, e.g. [0, 0.1, 0.2]");
+      std::vector<std::string> values;
+      for (const auto& item : v) {
+        if (!item.IsScalar()) throw InputError(where, "a swept key's values must be single values");
+        values.push_back(item.Scalar());
+      }
+      addSweep(it->first.as<std::string>(), values, where);
+    }
+    root.remove("sweep");
+  }
   walk(root, "", path, *this);
 }
 
@@ -213,6 +230,22 @@ void ParamSet::set(const std::string& key, const std::string& text, const std::s
   values_[key] = validate(d, text, where);
   set_[key] = true;
   origin_[key] = origin;
+}
+
+void ParamSet::addSweep(const std::string& key, const std::vector<std::string>& values, const std::string& where) {
+  const ParamDecl& d = decl(key, where);
+  if (d.isList()) throw InputError(where, "'" + key + "' is a list and cannot be swept");
+  for (const Sweep& s : sweeps_)
+    if (s.key == key) throw InputError(where, "'" + key + "' is swept twice (first at " + s.where + ")");
+  if (values.size() < 2) throw InputError(where, "sweeping '" + key + "' needs at least two values");
+  Sweep s{key, {}, where};
+  for (const std::string& v : values) {
+    const std::string text = validate(d, v, where + " (sweep of " + key + ")");
+    if (std::find(s.values.begin(), s.values.end(), text) != s.values.end())
+      throw InputError(where, "'" + key + "' lists the value " + text + " twice");
+    s.values.push_back(text);
+  }
+  sweeps_.push_back(std::move(s));
 }
 
 const std::string& ParamSet::origin(const std::string& key) const {

@@ -54,12 +54,25 @@ class ParamSet {
   std::string toMarkdown() const;
   const std::vector<ParamDecl>& decls() const { return decls_; }
 
+  /// A factor of a sweep: one key, a few values (each validated as that key's), in the order given.
+  struct Sweep {
+    std::string key;
+    std::vector<std::string> values;
+    std::string where;  ///< file:line:col or "--sweep"
+  };
+  /// Adds a factor ("a,b,c" or a YAML sequence's items). A file's top-level `sweep:` map (key: [values])
+  /// is read by loadYamlFile into the same list. Throws InputError on an unknown key, a list key, a
+  /// value its key refuses, fewer than two values or a key swept twice.
+  void addSweep(const std::string& key, const std::vector<std::string>& values, const std::string& where);
+  const std::vector<Sweep>& sweeps() const { return sweeps_; }
+
  private:
   const ParamDecl& decl(const std::string& key, const std::string& where) const;
   std::vector<ParamDecl> decls_;
   std::map<std::string, std::string> values_;  ///< validated text
   std::map<std::string, bool> set_;
   std::map<std::string, std::string> origin_;
+  std::vector<Sweep> sweeps_;
 };
 
 }  // namespace mm

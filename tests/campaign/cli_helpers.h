@@ -68,4 +68,34 @@ inline json outcomeFields(json t) {
   return t;
 }
 
+inline int shellOut(const std::string& cmd, std::string& out) {
+  FILE* p = popen(cmd.c_str(), "r");
+  char buf[4096];
+  out.clear();
+  while (size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
+  const int status = pclose(p);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+/// Loads `html` in headless Chromium (Debian's chromium), lets it lay the page out and returns the
+/// DOM it dumps, whose body carries data-plots-drawn: the SVG plots drawn with a size and marks.
+/// Empty when Chromium fails.
+inline std::string renderInChromium(const fs::path& html_file, const fs::path& scratch) {
+  std::ifstream in(html_file);
+  std::string html((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t body = html.find("</body>");
+  if (body == std::string::npos) return "";
+  html.replace(body, 7,
+               "<script>window.addEventListener('load',()=>{let n=0;for(const s of document.querySelectorAll('svg.plot')){"
+               "const b=s.getBBox();if(b.width>100&&b.height>50&&s.querySelectorAll('rect,circle,line').length>3)n++;}"
+               "document.body.setAttribute('data-plots-drawn',n);});</script></body>");
+  const fs::path probe = scratch / "probe.html";
+  std::ofstream(probe) << html;
+  std::string dom;
+  const std::string chromium = "chromium --headless --no-sandbox --disable-gpu --run-all-compositor-stages-before-draw "
+                               "--virtual-time-budget=5000 ";
+  if (shellOut(chromium + "--dump-dom file://" + probe.string() + " 2>/dev/null", dom) != 0) return "";
+  return dom;
+}
+
 }  // namespace mm::testing_cli

@@ -17,15 +17,6 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 using namespace testing_cli;
 
-int shellOut(const std::string& cmd, std::string& out) {
-  FILE* p = popen(cmd.c_str(), "r");
-  char buf[4096];
-  out.clear();
-  while (size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
-  const int status = pclose(p);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
 std::string pct(double v) {
   char b[32];
   std::snprintf(b, sizeof b, "%.1f%%", 100 * v);
@@ -54,24 +45,9 @@ TEST(Report, ChromiumRendersEveryPlotWithTheSummarysNumbers) {
   ASSERT_EQ(rep.code, 0) << rep.out;
   ASSERT_TRUE(fs::exists(out / "report.html"));
   ASSERT_TRUE(fs::exists(out / "report.md"));
-  // Chromium loads the file, lays it out and runs this script, which counts the plots it drew with
-  // a size; --dump-dom prints the DOM after that.
-  const fs::path probe = d.path() / "probe.html";
-  {
-    std::ifstream in(out / "report.html");
-    std::stringstream page;
-    page << in.rdbuf();
-    std::string html = page.str();
-    html.replace(html.find("</body>"), 7,
-                 "<script>window.addEventListener('load',()=>{let n=0;for(const s of document.querySelectorAll('svg.plot')){"
-                 "const b=s.getBBox();if(b.width>100&&b.height>50&&s.querySelectorAll('rect,circle,line').length>3)n++;}"
-                 "document.body.setAttribute('data-plots-drawn',n);});</script></body>");
-    std::ofstream(probe) << html;
-  }
-  const std::string chromium = "chromium --headless --no-sandbox --disable-gpu --run-all-compositor-stages-before-draw "
-                               "--virtual-time-budget=5000 ";
-  ASSERT_EQ(shellOut(chromium + "--dump-dom file://" + probe.string() + " 2>/dev/null", said), 0);
-  const std::string dom = said;
+  // Chromium loads the page, lays it out and counts the plots it drew with a size.
+  const std::string dom = renderInChromium(out / "report.html", d.path());
+  ASSERT_FALSE(dom.empty()) << "chromium failed";
   std::smatch m;
   ASSERT_TRUE(std::regex_search(dom, m, std::regex("data-plots-drawn=\"([0-9]+)\""))) << dom.substr(0, 2000);
   const json s = json::parse(std::ifstream(out / "summary.json"));
@@ -83,7 +59,9 @@ TEST(Report, ChromiumRendersEveryPlotWithTheSummarysNumbers) {
   EXPECT_EQ(shown(dom, "collision_events"), std::to_string(s["collision_events"].get<long>()));
   ASSERT_FALSE(s["faults"].empty());
   for (const json& f : s["faults"])
-    if (f["recovery"].get<double>() >= 0) EXPECT_EQ(shown(dom, "recovery." + f["kind"].get<std::string>()), pct(f["recovery"])) << f["kind"];
+    if (f["recovery"].get<double>() >= 0) {
+      EXPECT_EQ(shown(dom, "recovery." + f["kind"].get<std::string>()), pct(f["recovery"])) << f["kind"];
+    }
   // The page needs nothing from the network or the disk: no src or href to fetch.
   std::ifstream in(out / "report.html");
   const std::string html((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
