@@ -312,6 +312,8 @@ GateResult runGate(const GateOptions& o) {
   if (t.experiment != "any" && t.experiment != run.experiment)
     throw InputError(o.thresholds, "thresholds for experiment '" + t.experiment + "', but " + dir.string() + " ran '" +
                                        run.experiment + "'");
+  if (!summary.contains("trials") || !summary.at("trials").is_number_integer())
+    throw InputError((dir / "summary.json").string(), "no integer 'trials' (not a campaign summary)");
   const long n = summary.at("trials").get<long>();
   if (n < t.min_trials)
     throw InputError(dir.string(), std::to_string(n) + " trials, the thresholds (" + o.thresholds + ") need at least " +
