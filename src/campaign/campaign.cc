@@ -273,6 +273,8 @@ ResumeState prepareResults(const Experiment& e, const fs::path& out, const json&
                            const std::function<bool(uint64_t)>& will_run) {
   ResumeState st;
   const fs::path meta = out / "campaign.json", jsonl_path = out / "trials.jsonl";
+  if (fs::exists(out / "sweep.json"))
+    throw InputError(out.string(), "holds a sweep (sweep.json): a campaign of one cell goes in its own --out, or run the sweep again");
   if (fs::exists(meta)) {
     json there;
     try {

@@ -82,10 +82,12 @@ std::vector<std::vector<std::string>> sweepCells(const std::vector<ParamSet::Swe
   return cells;
 }
 
-Experiment loadExperiment(const std::string& path, const std::vector<std::string>& sets, const std::vector<std::string>& sweeps) {
+Experiment loadExperiment(const std::string& path, const std::vector<std::string>& sets, const std::vector<std::string>& sweeps,
+                          bool file_sweep) {
   Experiment e;
   ParamSet p(experimentParams());
   p.loadYamlFile(path);
+  if (!file_sweep) p.clearSweeps();
   for (const std::string& s : sets) {
     const auto eq = s.find('=');
     if (eq == std::string::npos || eq == 0) throw InputError("--set " + s, "expected key=value");
@@ -102,16 +104,21 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
     if (std::find(fixed.begin(), fixed.end(), f.key) != fixed.end() || f.key.rfind("test_faults.", 0) == 0)
       throw InputError(f.where, "'" + f.key + "' cannot be swept (it shapes the campaign, not its trials; seeds are shared by design)");
   }
-  if (sweepCells(p.sweeps()).size() > 256)
-    throw InputError(p.sweeps().front().where, "the sweep has " + std::to_string(sweepCells(p.sweeps()).size()) +
-                                                   " cells, expected at most 256");
+  {
+    double cells = 1;  // counted before any grid is built
+    for (const ParamSet::Sweep& f : p.sweeps()) cells *= static_cast<double>(f.values.size());
+    if (cells > 256)
+      throw InputError(p.sweeps().front().where, "the sweep has " + std::to_string(static_cast<long long>(cells)) +
+                                                     " cells, expected at most 256");
+  }
   readConfig(p, [&](ConfigArchive& a) { e.declare(a); },
              [&](const std::string& key, const std::string& value) { return resolvePath(value, p.origin(key)); });
   e.file = path;
   e.sweep = p.sweeps();
   e.params = std::move(p);
   e.sets = sets;
-  if (e.spawn.count_min > e.spawn.count_max)
+  // Cross-key checks: a sweep's cells are checked each, with their values (runSweep).
+  if (e.sweep.empty() && e.spawn.count_min > e.spawn.count_max)
     throw InputError(path, "objects.count_min (" + std::to_string(e.spawn.count_min) + ") must be <= objects.count_max (" +
                                std::to_string(e.spawn.count_max) + ")");
   for (int64_t t : e.only)

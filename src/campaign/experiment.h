@@ -59,9 +59,10 @@ struct Experiment {
 std::vector<ParamDecl> experimentParams();
 
 /// Loads `path`, applies `sets` ("key=value") and `sweeps` ("key=a,b,c", added to the file's
-/// sweep), validates. Throws InputError (exit code 2).
+/// sweep unless `file_sweep` is false: then the file's sweep: map is ignored, as for one cell of it),
+/// validates. Throws InputError (exit code 2).
 Experiment loadExperiment(const std::string& path, const std::vector<std::string>& sets,
-                          const std::vector<std::string>& sweeps = {});
+                          const std::vector<std::string>& sweeps = {}, bool file_sweep = true);
 
 /// A sweep's cells: every combination of its factors' values (the first factor varies slowest),
 /// each as the "key=value" settings that make it.

@@ -54,6 +54,7 @@ struct Run {
   std::string source;  ///< the folder or file, for messages
   std::string experiment, cpu, command;
   unsigned long seed = 0;
+  json config;  ///< the campaign's configuration fingerprint (campaign.json); null when not recorded
   std::map<unsigned long, Sample> trials;  ///< by trial index
 };
 
@@ -81,6 +82,10 @@ Run readResults(const fs::path& dir, json* summary_out) {
   } catch (const std::exception& e) {
     throw InputError(summary_path.string(), std::string("not a campaign summary: ") + e.what());
   }
+  if (fs::exists(dir / "campaign.json")) {
+    const json meta = readJson(dir / "campaign.json");
+    if (meta.is_object() && meta.contains("fingerprint") && meta.at("fingerprint").is_object()) r.config = meta.at("fingerprint");
+  }
   std::ifstream in(jsonl);
   if (!in) throw InputError(jsonl.string(), "cannot be read");
   std::string line;
@@ -103,7 +108,7 @@ json baselineJson(const Run& r) {
   json trials = json::array();
   for (const auto& [i, x] : r.trials) trials.push_back({{"trial", i}, {"success", x.success}, {"counters", x.counters}, {"timings", x.timings}});
   return {{"minimanip_gate_baseline", kBaselineFormat}, {"experiment", r.experiment}, {"seed", r.seed},
-          {"command", r.command}, {"cpu", r.cpu}, {"trials", trials}};
+          {"command", r.command}, {"cpu", r.cpu}, {"config", r.config}, {"trials", trials}};
 }
 
 Run readBaselineFile(const fs::path& p) {
@@ -118,12 +123,15 @@ Run readBaselineFile(const fs::path& p) {
     r.seed = j.at("seed").get<unsigned long>();
     r.command = j.value("command", "");
     r.cpu = j.value("cpu", "");
+    if (j.contains("config") && j.at("config").is_object()) r.config = j.at("config");
     for (const json& t : j.at("trials")) {
       Sample x;
       x.success = t.at("success").get<bool>();
       for (const std::string& c : gateCounterNames()) x.counters[c] = t.at("counters").at(c).get<double>();
       for (const std::string& c : gateTimingNames()) x.timings[c] = t.at("timings").at(c).get<double>();
-      r.trials[t.at("trial").get<unsigned long>()] = x;
+      const unsigned long index = t.at("trial").get<unsigned long>();
+      if (!r.trials.emplace(index, x).second)
+        throw InputError(p.string(), "trial " + std::to_string(index) + " appears twice");
     }
   } catch (const InputError&) {
     throw;
@@ -177,7 +185,9 @@ Check yieldCheck(const std::string& name, long k, long n, double threshold) {
   c.detail = std::to_string(k) + "/" + std::to_string(n) + " = " + fmt(100.0 * k / n, 1) + "%, Wilson 95% lower bound " +
              fmt(100 * lo, 1) + "% " + (lo >= threshold ? ">=" : "<") + " threshold " + fmt(100 * threshold, 1) + "%";
   const long kf = largestFailingCount(n, threshold);
-  if (kf >= n)
+  if (kf < 0)
+    c.detects = "nothing: even 0/" + std::to_string(n) + " passes a threshold of " + fmt(100 * threshold, 1) + "%";
+  else if (kf >= n)
     c.detects = "none: with " + std::to_string(n) + " trials even " + std::to_string(n) + "/" + std::to_string(n) +
                 " has a lower bound below the threshold (more trials needed)";
   else
@@ -224,6 +234,8 @@ void requireChoices(const std::vector<std::string>& got, const std::vector<std::
     }
 }
 
+/// Writes `text` to a temporary file beside `p`, then renames it over `p`. Throws InputError (the
+/// path and the system's reason) on any failure, filesystem errors included.
 void writeAtomically(const fs::path& p, const std::string& text) {
   const fs::path tmp = p.string() + ".tmp";
   {
@@ -232,7 +244,30 @@ void writeAtomically(const fs::path& p, const std::string& text) {
     out.close();
     if (!out) throw InputError(tmp.string(), "cannot be written");
   }
-  fs::rename(tmp, p);
+  std::error_code ec;
+  fs::rename(tmp, p, ec);
+  if (ec) throw InputError(p.string(), "cannot be written (" + ec.message() + ")");
+}
+
+/// The keys whose values differ between two configuration fingerprints, but those `allowed` and the
+/// test-only planner slowdown (it stands in for a slower build); "" when they agree.
+std::string configDifferences(const json& base, const json& run, const std::vector<std::string>& allowed) {
+  std::set<std::string> keys;
+  for (const auto& [k, v] : base.items()) keys.insert(k);
+  for (const auto& [k, v] : run.items()) keys.insert(k);
+  std::string said;
+  int n = 0;
+  for (const std::string& k : keys) {
+    if (k == "planning.test_slowdown" || std::find(allowed.begin(), allowed.end(), k) != allowed.end()) continue;
+    const json a = base.contains(k) ? base.at(k) : json("(absent)"), b = run.contains(k) ? run.at(k) : json("(absent)");
+    if (a == b) continue;
+    if (n++ == 6) {
+      said += "; ...";
+      break;
+    }
+    said += (said.empty() ? "" : "; ") + k + " " + a.dump() + " there, " + b.dump() + " here";
+  }
+  return said;
 }
 
 }  // namespace
@@ -272,6 +307,9 @@ void GateThresholds::declare(ConfigArchive& a) {
   a.value("max_ratio", max_ratio, {1, 100}, "", "a timing's median ratio (this run / baseline) above this, and significant, fails");
   a.value("timing_alpha", timing_alpha, {1e-9, 0.5}, "", "Mann-Whitney's two-sided significance level for timings");
   a.value("timing_same_cpu", timing_same_cpu, "compare wall timings only with a baseline from the same CPU model (else skipped, said so)");
+  a.list("config_may_differ", config_may_differ, {},
+         "experiment keys (and robot, scene, tree: their files) the baseline's configuration may differ in; any other "
+         "difference is exit 2 (a baseline of another configuration compares nothing); a baseline recording none is not checked");
   a.leave();
 }
 
@@ -302,6 +340,7 @@ GateResult runGate(const GateOptions& o) {
   GateThresholds t;
   ParamSet p(gateParams());
   p.loadYamlFile(o.thresholds);
+  if (!p.sweeps().empty()) throw InputError(p.sweeps().front().where, "a thresholds file has no sweep: map");
   readConfig(p, [&](ConfigArchive& a) { t.declare(a); },
              [&](const std::string& key, const std::string& value) {
                return value == "none" ? std::string() : resolvePath(value, p.origin(key));
@@ -326,6 +365,12 @@ GateResult runGate(const GateOptions& o) {
                                           std::to_string(run.seed) + " (paired comparisons need the same seeds)");
     if (base.experiment != run.experiment)
       throw InputError(baseline_path, "experiment '" + base.experiment + "', but " + dir.string() + " ran '" + run.experiment + "'");
+    if (!base.config.is_null() && !run.config.is_null()) {
+      const std::string diff = configDifferences(base.config, run.config, t.config_may_differ);
+      if (!diff.empty())
+        throw InputError(baseline_path, "another configuration than " + dir.string() + ": " + diff +
+                                            " (make a new baseline, or list the keys in baseline.config_may_differ)");
+    }
   }
 
   std::vector<Check> checks;
@@ -375,7 +420,8 @@ GateResult runGate(const GateOptions& o) {
     if (common.empty())
       throw InputError(baseline_path, "shares no trial index with " + dir.string() + " (expected the same experiment's trials)");
     notes += "baseline " + base.source + ": " + std::to_string(common.size()) + " trials in common (this run " +
-             std::to_string(run.trials.size()) + ", baseline " + std::to_string(base.trials.size()) + ")\n";
+             std::to_string(run.trials.size()) + ", baseline " + std::to_string(base.trials.size()) + ")" +
+             (base.config.is_null() || run.config.is_null() ? "; no configuration recorded on one side: not compared" : "") + "\n";
     // Paired success: McNemar's exact test on the trials that changed.
     long lost = 0, gained = 0;
     for (unsigned long i : common) {
@@ -442,9 +488,15 @@ GateResult runGate(const GateOptions& o) {
         c.detail = "median " + fmtg(median(xr)) + " s vs baseline " + fmtg(median(xb)) + " s, ratio " + fmt(ratio, 3) +
                    " (limit " + fmt(t.max_ratio, 2) + "), Mann-Whitney p = " + fmtg(mw.p) + " (alpha " + fmtg(t.timing_alpha) +
                    ")";
-        const double mdr = minimumDetectableRatio(static_cast<long>(xr.size()), static_cast<long>(xb.size()), sdOfLogs(xr, xb), t.timing_alpha);
-        c.detects = "a slowdown of " + fmt(std::max(mdr, t.max_ratio), 2) + "x (the limit " + fmt(t.max_ratio, 2) +
-                    "x; the sample alone resolves " + fmt(mdr, 2) + "x at 80% power)";
+        const double log_sd = sdOfLogs(xr, xb);
+        const double mdr = minimumDetectableRatio(static_cast<long>(xr.size()), static_cast<long>(xb.size()), log_sd, t.timing_alpha);
+        // Failing needs both: the observed ratio past the limit (a true ratio R is seen above the
+        // limit with probability 0.8 when log R = log limit + z_0.8 se) and the test significant
+        // (R >= mdr). The larger of the two is what this sample detects at 80% power.
+        const double se = log_sd * std::sqrt(1.0 / xr.size() + 1.0 / xb.size());
+        const double at_limit = t.max_ratio * std::exp(0.8416212335729143 * se);
+        c.detects = "a slowdown of " + fmt(std::max(mdr, at_limit), 2) + "x at 80% power (the limit " + fmt(t.max_ratio, 2) +
+                    "x plus this sample's noise; the test alone resolves " + fmt(mdr, 2) + "x)";
       }
       checks.push_back(c);
     }
@@ -472,7 +524,12 @@ GateResult runGate(const GateOptions& o) {
   const json out = {{"results", dir.string()}, {"thresholds", o.thresholds}, {"baseline", baseline_path},
                     {"exit_code", result.exit_code}, {"checks", j}};
   result.json = out.dump(2) + "\n";
-  writeAtomically(dir / "gate.json", result.json);
+  // The verdict stands whether or not its record can be written (a read-only results folder).
+  try {
+    writeAtomically(dir / "gate.json", result.json);
+  } catch (const InputError& e) {
+    result.text += std::string("warning: gate.json not written: ") + e.what() + "\n";
+  }
   return result;
 }
 

@@ -30,6 +30,7 @@ struct GateThresholds {
   double max_ratio = 1.5;   ///< median wall-time ratio (new / baseline) a regression must exceed
   double timing_alpha = 0.01;
   bool timing_same_cpu = true;  ///< compare wall timings only with a baseline from the same CPU model
+  std::vector<std::string> config_may_differ;  ///< experiment keys the baseline's configuration may differ in
   void declare(ConfigArchive& a);
 };
 

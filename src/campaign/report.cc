@@ -413,11 +413,25 @@ json sweepSections(Builder& b, const fs::path& dir, const json& sweep) {
       throw InputError(sp.string(), "not found: the sweep has not finished this cell (run the same command again to resume)");
     summaries.push_back(readJson(sp));
   }
+  // The cells' own summaries say how many trials each holds (a cell resumed with another --trials
+  // differs from sweep.json's count): the page counts those, and says so when they differ.
+  long min_trials = -1, max_trials = -1;
+  for (const json& s : summaries) {
+    const long n = s.at("trials").get<long>();
+    min_trials = min_trials < 0 ? n : std::min(min_trials, n);
+    max_trials = std::max(max_trials, n);
+  }
   b.section("Cells");
-  b.para("Every cell runs the same " + std::to_string(sweep.at("trials").get<long>()) + " trial indices of seed " +
-         std::to_string(sweep.at("seed").get<unsigned long>()) +
-         " (the same scenes and random streams wherever a factor leaves them alone); each cell's folder is a campaign's "
-         "results folder of its own (its report, its gate).");
+  if (min_trials == max_trials)
+    b.para("Every cell runs the same " + std::to_string(min_trials) + " trial indices of seed " +
+           std::to_string(sweep.at("seed").get<unsigned long>()) +
+           " (the same scenes and random streams wherever a factor leaves them alone); each cell's folder is a campaign's "
+           "results folder of its own (its report, its gate).");
+  else
+    b.para("Warning: the cells hold different numbers of trials (" + std::to_string(min_trials) + " to " +
+           std::to_string(max_trials) + ", seed " + std::to_string(sweep.at("seed").get<unsigned long>()) +
+           "), so they do not all see the same scenes and the pooled plots mix trial sets: run the sweep again with one "
+           "--trials to even them. Each cell's folder is a campaign's results folder of its own.");
   std::vector<std::vector<std::pair<std::string, std::string>>> rows;
   for (size_t i = 0; i < summaries.size(); ++i) {
     const json& c = sweep.at("cells").at(i);
@@ -498,7 +512,10 @@ std::string writeReport(const ReportOptions& o) {
       std::string factors;
       for (const json& f : sweep.at("factors")) factors += (factors.empty() ? "" : " x ") + f.at("key").get<std::string>();
       s["tree"] = s.value("tree", std::string("?")) + " · factors " + factors + " · " + std::to_string(sweep.at("cells").size()) + " cells";
-      s["trials"] = sweep.at("trials").get<long>() * static_cast<long>(sweep.at("cells").size());
+      long trials = 0;
+      for (const json& c : sweep.at("cells"))
+        trials += readJson(dir / c.at("dir").get<std::string>() / "summary.json").at("trials").get<long>();
+      s["trials"] = trials;
     } else {
       campaignSections(b, s, dir / "trials.jsonl");
     }

@@ -32,10 +32,24 @@ std::string runSweep(const Experiment& e, const CampaignOptions& o) {
   json factors = json::array(), cell_list = json::array();
   for (const ParamSet::Sweep& f : e.sweep) factors.push_back({{"key", f.key}, {"values", f.values}});
   std::vector<Experiment> experiments;
+  // A path value in a file's sweep: map is relative to that file, as the file's other paths are;
+  // a cell passes it on (to its workers too) as an absolute --set.
+  const auto cellSetting = [&](const std::string& setting) {
+    const std::string key = setting.substr(0, setting.find('=')), value = setting.substr(setting.find('=') + 1);
+    for (const ParamSet::Sweep& f : e.sweep)
+      if (f.key == key && !f.origin.empty() && value != "none")
+        for (const ParamDecl& d : e.params.decls())
+          if (d.key == key && d.kind == ParamDecl::Kind::kPath)
+            return key + "=" + fs::absolute(resolvePath(value, f.origin)).lexically_normal().string();
+    return setting;
+  };
   for (size_t i = 0; i < cells.size(); ++i) {
     std::vector<std::string> sets = e.sets;
-    sets.insert(sets.end(), cells[i].begin(), cells[i].end());
-    experiments.push_back(loadExperiment(e.file, sets));  // every cell's input checked before any runs
+    for (const std::string& c : cells[i]) sets.push_back(cellSetting(c));
+    // Every cell's input checked before any runs, with the file's sweep: map set aside.
+    experiments.push_back(loadExperiment(e.file, sets, {}, false));
+    if (experiments.back().spawn.count_min > experiments.back().spawn.count_max)
+      throw InputError(e.file, "cell " + std::to_string(i) + " has objects.count_min > objects.count_max");
     checkCampaignInput(experiments.back());
     json settings = json::object();
     for (const std::string& s : cells[i]) settings[s.substr(0, s.find('='))] = s.substr(s.find('=') + 1);
@@ -52,6 +66,7 @@ std::string runSweep(const Experiment& e, const CampaignOptions& o) {
     } catch (const std::exception& ex) {
       throw InputError(meta.string(), std::string("not JSON: ") + ex.what());
     }
+    if (!old.is_object()) throw InputError(meta.string(), "not a sweep's sweep.json (expected a JSON object)");
     for (const char* k : {"experiment", "seed", "factors"})
       if (old.value(k, json()) != sweep.at(k))
         throw InputError(out.string(), std::string("holds another sweep: its ") + k + " is " + old.value(k, json()).dump() +
@@ -62,8 +77,12 @@ std::string runSweep(const Experiment& e, const CampaignOptions& o) {
   fs::create_directories(out);
   {
     const fs::path tmp = meta.string() + ".tmp";
-    std::ofstream(tmp) << sweep.dump(2) << "\n";
-    fs::rename(tmp, meta);
+    std::ofstream f(tmp);
+    f << sweep.dump(2) << "\n";
+    f.close();
+    std::error_code ec;
+    if (f) fs::rename(tmp, meta, ec);
+    if (!f || ec) throw InputError(meta.string(), "cannot be written" + (ec ? " (" + ec.message() + ")" : std::string()));
   }
 
   size_t width = 0;

@@ -27,6 +27,7 @@ namespace {
 struct RunArgs {
   std::string file, out, trials, seed, jobs, only, shard;
   std::vector<std::string> sets, sweeps;
+  bool no_sweep = false;
 };
 
 void addRunOptions(CLI::App* sub, RunArgs& r, bool with_out) {
@@ -41,6 +42,8 @@ void addRunOptions(CLI::App* sub, RunArgs& r, bool with_out) {
   if (with_out)
     sub->add_option("--sweep", r.sweeps, "key=a,b,c: run the campaign for each value (repeatable: the grid of all); = the file's sweep: map")
         ->allow_extra_args(false);
+  if (with_out)
+    sub->add_flag("--no-sweep", r.no_sweep, "ignore the file's sweep: map (replay one cell with --set key=value)");
 }
 
 mm::Experiment loadRun(const RunArgs& r) {
@@ -51,7 +54,7 @@ mm::Experiment loadRun(const RunArgs& r) {
   if (!r.only.empty()) sets.push_back("only=" + r.only);
   if (!r.shard.empty()) sets.push_back("shard=" + r.shard);
   sets.insert(sets.end(), r.sets.begin(), r.sets.end());
-  return mm::loadExperiment(r.file, sets, r.sweeps);
+  return mm::loadExperiment(r.file, sets, r.sweeps, !r.no_sweep);
 }
 
 // A subcommand whose options are a struct's declarations: --key value (underscores as dashes).
@@ -180,7 +183,7 @@ int main(int argc, char** argv) {
                 << "/ (trials.jsonl, summary.json, config.resolved.yaml, campaign.json, bt/)\n";
       return 0;
     }
-    if (worker->parsed()) return mm::runWorker(mm::loadExperiment(worker_args.file, worker_args.sets), worker_args.out);
+    if (worker->parsed()) return mm::runWorker(mm::loadExperiment(worker_args.file, worker_args.sets, {}, false), worker_args.out);
     if (run->parsed() || bench->parsed()) {
       const RunArgs& r = run->parsed() ? run_args : bench_args;
       const mm::Experiment e = loadRun(r);

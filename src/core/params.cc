@@ -214,7 +214,7 @@ void ParamSet::loadYamlFile(const std::string& path) {
         if (!item.IsScalar()) throw InputError(where, "a swept key's values must be single values");
         values.push_back(item.Scalar());
       }
-      addSweep(it->first.as<std::string>(), values, where);
+      addSweep(it->first.as<std::string>(), values, where, path);
     }
     root.remove("sweep");
   }
@@ -232,13 +232,14 @@ void ParamSet::set(const std::string& key, const std::string& text, const std::s
   origin_[key] = origin;
 }
 
-void ParamSet::addSweep(const std::string& key, const std::vector<std::string>& values, const std::string& where) {
+void ParamSet::addSweep(const std::string& key, const std::vector<std::string>& values, const std::string& where,
+                        const std::string& origin) {
   const ParamDecl& d = decl(key, where);
   if (d.isList()) throw InputError(where, "'" + key + "' is a list and cannot be swept");
   for (const Sweep& s : sweeps_)
     if (s.key == key) throw InputError(where, "'" + key + "' is swept twice (first at " + s.where + ")");
   if (values.size() < 2) throw InputError(where, "sweeping '" + key + "' needs at least two values");
-  Sweep s{key, {}, where};
+  Sweep s{key, {}, where, origin};
   for (const std::string& v : values) {
     const std::string text = validate(d, v, where + " (sweep of " + key + ")");
     if (std::find(s.values.begin(), s.values.end(), text) != s.values.end())

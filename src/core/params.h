@@ -58,12 +58,16 @@ class ParamSet {
   struct Sweep {
     std::string key;
     std::vector<std::string> values;
-    std::string where;  ///< file:line:col or "--sweep"
+    std::string where;   ///< file:line:col or "--sweep"
+    std::string origin;  ///< the file whose sweep: map it is (its path values are relative to it); "" for --sweep
   };
   /// Adds a factor ("a,b,c" or a YAML sequence's items). A file's top-level `sweep:` map (key: [values])
   /// is read by loadYamlFile into the same list. Throws InputError on an unknown key, a list key, a
   /// value its key refuses, fewer than two values or a key swept twice.
-  void addSweep(const std::string& key, const std::vector<std::string>& values, const std::string& where);
+  void addSweep(const std::string& key, const std::vector<std::string>& values, const std::string& where,
+                const std::string& origin = "");
+  /// Forgets every factor (a file's sweep: map ignored, to run one cell with --set).
+  void clearSweeps() { sweeps_.clear(); }
   const std::vector<Sweep>& sweeps() const { return sweeps_; }
 
  private:

@@ -22,9 +22,7 @@ const std::string kMock = kMockAnySeed + " --seed 5";
 const std::string kBaselineOnly = R"(experiment: quickstart
 baseline:
   counters: [collision_checks, ticks, grasp_candidates_tried, sim_time]
-  timings: [compute_time]
-  max_ratio: 1.5
-  timing_alpha: 0.01
+  timings: []
 )";
 const std::string kTimingOnly = R"(baseline:
   counters: []
@@ -55,7 +53,6 @@ TEST(Gate, PassesAnUnchangedBuildAndFailsASlowedPlanner) {
   EXPECT_EQ(same.code, 0) << same.out;
   EXPECT_THAT(same.out, HasSubstr("PASS  counter.collision_checks: sum"));
   EXPECT_THAT(same.out, HasSubstr("0 of 24 trials differ"));
-  EXPECT_THAT(same.out, HasSubstr("PASS  timing.compute_time"));
   EXPECT_THAT(same.out, HasSubstr("PASS  paired_success: 0 trials lost, 0 gained"));
   EXPECT_THAT(same.out, HasSubstr("detects: "));
   const json verdict = json::parse(std::ifstream(fs::path(runs.same) / "gate.json"));
@@ -68,12 +65,16 @@ TEST(Gate, PassesAnUnchangedBuildAndFailsASlowedPlanner) {
   EXPECT_THAT(slow.out, HasSubstr("PASS  counter.sim_time"));  // same paths, same motions
   EXPECT_THAT(slow.out, HasSubstr("PASS  paired_success"));
   EXPECT_THAT(slow.out, HasSubstr("REGRESSION"));
-  // ...and so do its wall timings alone (Mann-Whitney and the ratio), while the same build's don't.
+  // ...and so do its wall timings alone (Mann-Whitney and the ratio). The same build's timings are
+  // judged too, but their verdict is not asserted: under ctest -j a busy machine may slow one run
+  // (wall time is measured, never asserted; the x40 slowdown is far past any such noise).
   const RunResult slow_t = runMinimanip("gate " + runs.slow + " --thresholds " + timing + " --baseline " + runs.base);
   EXPECT_EQ(slow_t.code, 1) << slow_t.out;
   EXPECT_THAT(slow_t.out, HasSubstr("FAIL  timing.plan_pick_time"));
+  EXPECT_THAT(slow_t.out, HasSubstr("at 80% power"));
   const RunResult same_t = runMinimanip("gate " + runs.same + " --thresholds " + timing + " --baseline " + runs.base);
-  EXPECT_EQ(same_t.code, 0) << same_t.out;
+  EXPECT_NE(same_t.code, 2) << same_t.out;
+  EXPECT_THAT(same_t.out, HasSubstr("timing.compute_time: median"));
 
   // A saved baseline file judges as its folder does.
   const std::string file = (runs.d.path() / "baseline.json").string();
@@ -90,7 +91,9 @@ TEST(Gate, LostSuccessesFailByMcNemarAndYieldsByTheirWilsonBound) {
   // The recovery-free tree with a gripper that never closes the first time: most trials fail.
   ASSERT_EQ(runMinimanip(kMock + " --trials 16 --set tree=experiments/trees/pick_place.xml --set faults.gripper_no_close=1 --out " + worse).code,
             0);
-  const std::string th = d.file("gate.yaml", "yields:\n  overall_yield: 0.7\nbaseline:\n  timings: []\n");
+  // The tree and fault rate stand in for a build that lost its recovery: allowed to differ.
+  const std::string th = d.file("gate.yaml", "yields:\n  overall_yield: 0.7\nbaseline:\n  timings: []\n"
+                                             "  config_may_differ: [tree, faults.gripper_no_close]\n");
   const RunResult ok = runMinimanip("gate " + base + " --thresholds " + th + " --baseline " + base);
   EXPECT_EQ(ok.code, 0) << ok.out;
   EXPECT_THAT(ok.out, HasSubstr("PASS  overall_yield: 16/16 = 100.0%, Wilson 95% lower bound 80.6%"));
@@ -108,6 +111,15 @@ TEST(Gate, BadInputIsExitTwoNamingTheFile) {
   ASSERT_EQ(runMinimanip(kMock + " --trials 2 --out " + base).code, 0);
   ASSERT_EQ(runMinimanip(kMockAnySeed + " --trials 2 --seed 6 --out " + other).code, 0);
   const std::string good = d.file("good.yaml", "min_trials: 1\n");
+  // The same seed and trials, another configuration: nothing to compare.
+  const std::string config = (d.path() / "config").string();
+  ASSERT_EQ(runMinimanip(kMock + " --trials 2 --set motion.velocity_scaling=0.4 --out " + config).code, 0);
+  // A baseline file listing a trial twice.
+  const std::string saved = (d.path() / "saved.json").string();
+  ASSERT_EQ(runMinimanip("gate " + base + " --save-baseline " + saved).code, 0);
+  json b = json::parse(std::ifstream(saved));
+  b.at("trials").push_back(b.at("trials").at(0));
+  const std::string twice = b.dump();
   struct Case {
     std::string args, says;
   } cases[] = {
@@ -120,6 +132,9 @@ TEST(Gate, BadInputIsExitTwoNamingTheFile) {
       {"gate " + base + " --thresholds " + good + " --baseline " + d.file("junk.json", "{}"), "not a gate baseline"},
       {"gate " + (d.path() / "none").string() + " --thresholds " + good, "not a results folder"},
       {"gate " + base, "--thresholds FILE is required"},
+      {"gate " + base + " --thresholds " + d.file("sweep.yaml", "sweep:\n  min_trials: [1, 2]\n"), "no sweep"},
+      {"gate " + base + " --thresholds " + good + " --baseline " + config, "another configuration"},
+      {"gate " + base + " --thresholds " + good + " --baseline " + d.file("dup.json", twice), "appears twice"},
   };
   for (const Case& c : cases) {
     const RunResult r = runMinimanip(c.args);

@@ -100,6 +100,41 @@ TEST(Sweep, BadFactorsAreExitTwoBeforeAnyTrial) {
   const RunResult r = runMinimanip("run " + file + " --out " + out);
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_THAT(r.out, HasSubstr("s.yaml:5:3"));
+  // Cross-key checks apply to each cell's values, not the file's own (count_max 1 < count_min 2 in a cell).
+  const RunResult cross = runMinimanip(kMock + " --set objects.count_min=2 --sweep objects.count_max=1,3 --out " + out);
+  EXPECT_EQ(cross.code, 2) << cross.out;
+  EXPECT_THAT(cross.out, HasSubstr("count_min"));
+  EXPECT_FALSE(fs::exists(fs::path(out) / "cell_001")) << cross.out;
+}
+
+TEST(Sweep, AFilesPathValuesAreRelativeToItAndOneCellReplaysAlone) {
+  TempDir d;
+  // The file lives outside the repository; its swept tree paths are relative to it.
+  const fs::path trees = fs::path(MINIMANIP_SOURCE_DIR) / "experiments" / "trees";
+  fs::create_directories(d.path() / "mine");
+  fs::copy_file(trees / "pick_place.xml", d.path() / "mine" / "plain.xml");
+  fs::copy_file(trees / "recovering_pick_place.xml", d.path() / "mine" / "recover.xml");
+  const std::string file = d.file("sweep.yaml", "name: s\ntrials: 3\nseed: 4\nhardware: mock\nprogress: none\n"
+                                                "faults:\n  gripper_no_close: 1\n"
+                                                "sweep:\n  tree: [mine/plain.xml, mine/recover.xml]\n");
+  const std::string out = (d.path() / "out").string();
+  const RunResult r = runMinimanip("run " + file + " --out " + out);
+  ASSERT_EQ(r.code, 0) << r.out;
+  const json plain = json::parse(std::ifstream(fs::path(out) / "cell_000" / "summary.json"));
+  const json recover = json::parse(std::ifstream(fs::path(out) / "cell_001" / "summary.json"));
+  EXPECT_LT(plain["overall_yield"]["value"].get<double>(), recover["overall_yield"]["value"].get<double>());
+  // A plain campaign cannot run into the sweep's folder...
+  const RunResult into = runMinimanip("run " + file + " --no-sweep --out " + out);
+  EXPECT_EQ(into.code, 2) << into.out;
+  EXPECT_THAT(into.out, HasSubstr("holds a sweep"));
+  // ...but one cell replays alone with --no-sweep and its value as --set, trial for trial.
+  const std::string alone = (d.path() / "alone").string();
+  const RunResult one = runMinimanip("run " + file + " --no-sweep --set tree=" + (d.path() / "mine" / "recover.xml").string() +
+                                     " --out " + alone);
+  ASSERT_EQ(one.code, 0) << one.out;
+  const auto a = readTrials(alone), c = readTrials(fs::path(out) / "cell_001");
+  ASSERT_EQ(a.size(), c.size());
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(outcomeFields(a[i]), outcomeFields(c[i])) << "trial " << i;
 }
 
 }  // namespace
