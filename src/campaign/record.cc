@@ -56,6 +56,10 @@ void TrialRecord::describe(RecordArchive& a) {
   a.field("collision_log", o.collision_log, "", "which geom hit what, when");
   a.field("max_tracking_error", o.max_tracking_error, "rad", "max over samples and joints of |commanded - measured|");
   a.field("collision_checks", o.collision_checks, "", "planning collision checks");
+  a.field("max_external_force", o.max_external_force, "N",
+          "the largest external contact force on an arm link or the hand (held object's weight included; 0 on mock)");
+  a.field("non_target_contacts", o.non_target_contacts, "", "episodes of the robot touching an object it was not picking or holding");
+  a.field("neighbours_moved", o.neighbours_moved, "m", "the farthest an object moved while another was picked (pushes aside)");
   a.object("recovery", [&](RecordArchive& r) {
     r.field("needed", o.recovery_needed, "", "a failure the tree went on after");
     r.field("success", o.recovery_success, "", "and the trial succeeded");
@@ -79,11 +83,23 @@ void TrialRecord::describe(RecordArchive& a) {
     if (offset.size() == 3) k.offset = Vec3(offset[0], offset[1], offset[2]);
     p.field("grasp_candidates_tried", k.grasp_candidates_tried, "", "for this object");
     p.field("grasp_opening", k.grasp_opening, "m", "per finger when it was grasped");
+    p.field("neighbours_moved", k.neighbours_moved, "m", "the farthest another object moved while this one was picked");
     p.field("reason", k.reason, "", "why it is not placed");
   }, "every object let go of, in order");
   long placed = std::count_if(o.picks.begin(), o.picks.end(), [](const PickRecord& p) { return p.placed; });
   a.field("objects_placed", placed, "", "picks placed within the tolerances");
   a.field("objects_left_in_bin", o.objects_left_in_bin, "", "at the end, as the bin's sensor sees it");
+  size_t n_left = o.left.size();
+  a.list("objects_left", n_left, [&](size_t i, RecordArchive& l) {
+    if (l.reading() && o.left.size() <= i) o.left.resize(i + 1);
+    LeftRecord& k = o.left[i];
+    l.field("object", k.object, "", "scene pool index");
+    std::vector<double> p{k.position.x(), k.position.y(), k.position.z()};
+    l.field("position", p, "m", "where it rests (world x, y, z)");
+    if (p.size() == 3) k.position = Vec3(p[0], p[1], p[2]);
+    l.field("tilt", k.tilt, "rad", "of its axis nearest the vertical");
+    l.field("reason", k.reason, "", "why it was not picked: its last grasp's or push's failure, or not tried");
+  }, "every object still in the bin at the end");
   a.field("reported_total", o.reported_total, "", "ReportCompletion's total (-1: never reported)");
   size_t n_failures = o.failures.size();
   a.list("failures", n_failures, [&](size_t i, RecordArchive& f) {
@@ -193,7 +209,11 @@ void CampaignSummary::describe(RecordArchive& a) {
     f.field("mttr_max", s.mttr_max, "s", "");
   }, "recovery per fault kind injected");
   a.field("mtbf", mtbf, "s", "simulated time per failure the tree did not recover (-1: none)");
-  a.field("protective_stops", protective_stops, "", "motions stopped by the controller's path tolerance (tracking error)");
+  a.field("protective_stops", protective_stops, "", "motions stopped by the controller: path tolerance (tracking) or contact force");
+  a.field("protective_stops_contact", protective_stops_contact, "", "of them, on contact force");
+  a.field("max_external_force", max_external_force, "N", "the largest over the trials");
+  a.field("non_target_contacts_per_trial", non_target_contacts_per_trial, "", "touches of objects other than the one picked or held");
+  a.field("neighbours_moved_mm_max", neighbours_moved_mm_max, "mm", "the farthest an object moved while another was picked");
   a.field("objects_placed", objects_placed, "", "");
   a.field("objects_left_in_bin", objects_left_in_bin, "", "");
   a.field("bins_cleared", bins_cleared, "", "trials that ended with the bin empty");
@@ -372,6 +392,7 @@ std::string recordsMarkdown() {
   r.o.failures.resize(1);
   r.o.stages.resize(1);
   r.o.faults.resize(1);
+  r.o.left.resize(1);
   r.describe(t);
   Documenter s;
   CampaignSummary c;
@@ -402,7 +423,13 @@ void SummaryBuilder::add(const TrialRecord& r) {
   s.max_tracking_error = std::max(s.max_tracking_error, o.max_tracking_error);
   if (o.recovery_needed) ++s.recoveries_needed, s.recovered += o.recovery_success;
   unrecovered_failures_ += !o.success;
-  for (const RecordedFailure& f : o.failures) s.protective_stops += f.failure.kind == FailureKind::kTracking;
+  for (const RecordedFailure& f : o.failures) {
+    s.protective_stops += f.failure.kind == FailureKind::kTracking || f.failure.kind == FailureKind::kContactForce;
+    s.protective_stops_contact += f.failure.kind == FailureKind::kContactForce;
+  }
+  s.max_external_force = std::max(s.max_external_force, o.max_external_force);
+  non_target_contacts_ += o.non_target_contacts;
+  s.neighbours_moved_mm_max = std::max(s.neighbours_moved_mm_max, 1000 * o.neighbours_moved);
   for (const FaultRecord& f : o.faults) {
     FaultStats& k = kinds_[f.kind];
     k.kind = f.kind;
@@ -452,6 +479,7 @@ CampaignSummary SummaryBuilder::get() const {
   }
   const double all_time = static_cast<double>(all_time_) / 1e9, sim_total = static_cast<double>(sim_total_) / 1e9;
   s.mtbf = unrecovered_failures_ > 0 ? sim_total / unrecovered_failures_ : -1;
+  s.non_target_contacts_per_trial = s.trials > 0 ? static_cast<double>(non_target_contacts_) / s.trials : 0;
 
   const long n = s.trials;
   const auto [fl, fh] = wilson95(s.first_pass, n);

@@ -36,7 +36,7 @@ class RecordArchive {
   virtual bool reading() const { return false; }
 };
 
-constexpr int kTrialSchema = 4;  // 3: attempts, failure kinds crash and hang; 4: picks' offset
+constexpr int kTrialSchema = 5;  // 3: attempts, failure kinds crash and hang; 4: picks' offset; 5: forces, contacts
 
 /// One trial as trials.jsonl holds it.
 struct TrialRecord {
@@ -89,7 +89,11 @@ struct CampaignSummary {
   std::map<std::string, long> failure_stages;
   std::vector<FaultStats> faults;  ///< per fault kind injected
   double mtbf = -1;                ///< [s] simulated time per trial failure the tree did not recover (-1: none)
-  long protective_stops = 0;       ///< motions stopped by the path tolerance (tracking)
+  long protective_stops = 0;       ///< motions stopped by the path tolerance (tracking) or on contact force
+  long protective_stops_contact = 0;  ///< of them, on contact force
+  double max_external_force = 0;   ///< [N] over the trials
+  double non_target_contacts_per_trial = 0;
+  double neighbours_moved_mm_max = 0;
   double wall_seconds = 0, trials_per_second = 0;
   std::string minimanip, mujoco, ompl, compiler, cpu, host;
   long cores = 0, jobs = 0;
@@ -111,7 +115,7 @@ class SummaryBuilder {
   std::map<std::string, ExactMoments> parts_, mttr_;
   std::map<std::string, FaultStats> kinds_;
   Int128 all_time_ = 0, sim_total_ = 0;
-  long unrecovered_failures_ = 0;
+  long unrecovered_failures_ = 0, non_target_contacts_ = 0;
 };
 
 /// The statistics of `trials` (a SummaryBuilder fed with each).

@@ -21,6 +21,7 @@ const char* failureKindName(FailureKind kind) {
     case FailureKind::kPrecondition: return "precondition";
     case FailureKind::kTracking: return "tracking";
     case FailureKind::kPathBlocked: return "path_blocked";
+    case FailureKind::kContactForce: return "contact_force";
     case FailureKind::kCrash: return "crash";
     case FailureKind::kHang: return "hang";
   }

@@ -23,6 +23,7 @@ enum class FailureKind {
   kPrecondition,          ///< an action could not run in the state it was called in
   kTracking,              ///< a joint left the path tolerance (the controller's protective stop)
   kPathBlocked,           ///< an obstacle sensed during a motion blocks the rest of its path
+  kContactForce,          ///< an external contact force past the limit (the controller's protective stop)
   kCrash,                 ///< the trial's worker process died (a signal), in both attempts
   kHang,                  ///< the wall-clock watchdog stopped the trial's worker, in both attempts
 };

@@ -26,9 +26,10 @@ void Motion::fail(const Hardware& hw, Failure failure) {
 // ---- joint trajectory ------------------------------------------------------------------------
 
 TrajectoryMotion::TrajectoryMotion(JointTrajectory traj, double gripper_opening, double gripper_force,
-                                   StepMonitor monitor, const RobotModel& robot, double settle, double path_tolerance)
+                                   StepMonitor monitor, const RobotModel& robot, double settle, double path_tolerance,
+                                   double force_limit)
     : traj_(std::move(traj)), opening_(gripper_opening), force_(gripper_force), monitor_(std::move(monitor)),
-      robot_(robot), settle_(settle), path_tolerance_(path_tolerance) {}
+      robot_(robot), settle_(settle), path_tolerance_(path_tolerance), force_limit_(force_limit) {}
 
 // Period k takes the state from sample k to sample k+1: the setpoint is the sample due at the
 // period's end (with the acceleration over the period), and the error is measured there. Then the
@@ -75,6 +76,14 @@ void TrajectoryMotion::observe(Hardware& hw) {
       stop(hw);
     }
   }
+  if (force_limit_ > 0 && pending_.ok()) {
+    const double force = hw.externalForce();
+    if (force > force_limit_) {
+      pending_ = {"", FailureKind::kContactForce,
+                  "protective stop: " + std::to_string(force) + " N of contact force (limit " + std::to_string(force_limit_) + " N)"};
+      stop(hw);
+    }
+  }
   if (monitor_ && pending_.ok()) {
     pending_ = monitor_();
     if (!pending_.ok()) stop(hw);
@@ -90,6 +99,14 @@ void TrajectoryMotion::observe(Hardware& hw) {
 void TrajectoryMotion::stop(Hardware& hw) {
   const bool tracking = pending_.kind == FailureKind::kTracking;
   const VecX offset = tracking ? VecX(hw.jointPositions() - traj_.q.col(std::min(k_ + 1, traj_.size() - 1))) : VecX();
+  if (pending_.kind == FailureKind::kContactForce) {
+    // A collision reflex: hold where the joints are now, braking at once (a controlled stop along
+    // the path would press on into what was hit).
+    traj_ = JointTrajectory::startingAt(hw.jointPositions(), 1, traj_.dt);
+    streaming_ = false;
+    k_ = 0;
+    return;
+  }
   if (streaming_ && k_ + 2 < traj_.size()) {
     traj_ = controlledStop(traj_, k_ + 1, robot_.vmax(), robot_.amax(), robot_.jmax());
     k_ = -1;  // observe() moves it onto sample 0 of the stop, where the joints are being sent

@@ -64,8 +64,10 @@ class TrajectoryMotion final : public Motion {
  public:
   /// `path_tolerance` [rad]: a joint farther than this from its setpoint fails the motion (kTracking,
   /// after a controlled stop), as ros2_control's JTC aborts on its path tolerance; 0: off.
+  /// `force_limit` [N]: an external contact force (Hardware::externalForce) past it fails the motion
+  /// (kContactForce), holding where the joints are, as a collision reflex; 0: off.
   TrajectoryMotion(JointTrajectory traj, double gripper_opening, double gripper_force, StepMonitor monitor,
-                   const RobotModel& robot, double settle = 0.3, double path_tolerance = 0);
+                   const RobotModel& robot, double settle = 0.3, double path_tolerance = 0, double force_limit = 0);
   bool command(Hardware& hw) override;
   void observe(Hardware& hw) override;
   void halt(Hardware& hw) override;
@@ -77,7 +79,7 @@ class TrajectoryMotion final : public Motion {
   double opening_, force_;
   StepMonitor monitor_;
   const RobotModel& robot_;
-  double settle_, path_tolerance_;
+  double settle_, path_tolerance_, force_limit_;
   int k_ = 0;            // the sample the joints were last sent to
   bool streaming_ = true;
   double t_settle_ = 0;

@@ -29,6 +29,7 @@ class HardwareBase : public Hardware {
   ObjectState object(int i) const override { return w_.object(i); }
   Pose tcpPose() const override { return w_.tcpPose(); }
   std::vector<Obstacle> obstacles() const override { return w_.placedObstacles(); }
+  std::vector<int> objectsTouched() const override { return w_.objectsTouched(); }
   int collisionEvents() const override { return w_.collisionEvents(); }
   const std::vector<std::string>& collisionLog() const override { return w_.collisionLog(); }
   bool unstable() const override { return w_.unstable(); }
@@ -50,6 +51,7 @@ class MujocoHardware final : public HardwareBase {
   VecX jointVelocities() const override { return w_.armVelocities(); }
   double gripperForce() const override { return w_.fingerForce(); }
   Vec3 objectVelocity(int i) const override { return w_.objectVelocity(i); }
+  double externalForce() const override { return w_.externalForce(); }
   // The setpoint is where the joints should be at the end of the period; the servo tracks the
   // reference at its start (the previous setpoint) with the period's acceleration as feed-forward.
   void step() override {
@@ -73,6 +75,7 @@ class MockHardware final : public HardwareBase {
   VecX jointVelocities() const override { return qd_cmd_; }
   double gripperForce() const override { return held_ >= 0 ? grip_force_ : 0.0; }
   Vec3 objectVelocity(int i) const override { return i == held_ ? held_velocity_ : Vec3::Zero(); }
+  double externalForce() const override { return 0; }  // kinematic: no forces
   void attach(int, bool) override {}  // a held object already moves with the hand
   void setStiff(bool) override {}     // joints follow commands exactly
 

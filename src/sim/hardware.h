@@ -47,6 +47,12 @@ class Hardware {
   /// Obstacles that are not part of the cell (placed on the table since the trial began), as an
   /// obstacle sensor sees them: what the robot learns by perceiving.
   virtual std::vector<Obstacle> obstacles() const = 0;
+  /// [N] the largest external contact force on one part of the arm or on the hand (a wrist
+  /// sensor's view: the held object's weight counts, the grip's squeeze cancels); 0 where the
+  /// backend has no forces (mock).
+  virtual double externalForce() const = 0;
+  /// The objects the robot touches now (ground truth: for metrics, never for decisions).
+  virtual std::vector<int> objectsTouched() const = 0;
   virtual int collisionEvents() const = 0;
   virtual const std::vector<std::string>& collisionLog() const = 0;
   virtual bool unstable() const = 0;
@@ -77,6 +83,8 @@ class ForwardingHardware : public Hardware {
   Vec3 objectVelocity(int i) const override { return in_.objectVelocity(i); }
   Pose tcpPose() const override { return in_.tcpPose(); }
   std::vector<Obstacle> obstacles() const override { return in_.obstacles(); }
+  double externalForce() const override { return in_.externalForce(); }
+  std::vector<int> objectsTouched() const override { return in_.objectsTouched(); }
   int collisionEvents() const override { return in_.collisionEvents(); }
   const std::vector<std::string>& collisionLog() const override { return in_.collisionLog(); }
   bool unstable() const override { return in_.unstable(); }

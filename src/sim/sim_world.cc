@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <mutex>
+#include <map>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -64,6 +65,8 @@ struct SimWorld::Impl {
   std::vector<int> obstacle_body, obstacle_mocap, obstacle_geom;
   std::vector<char> obstacle_placed;
   std::vector<char> robot_geom, static_geom, foreign_geom;
+  std::vector<int> geom_object;  ///< the object index of an object's geom, else -1
+  std::vector<int> body_group;   ///< a robot body's force group: the hand for the hand and what it carries, else itself; -1 off the robot
   int robot_root = -1;
   ServoGains gains;
   bool stiff = false;
@@ -208,6 +211,22 @@ std::unique_ptr<SimWorld> SimWorld::load(const std::string& scene_xml, const Rob
     }
     for (; b > 0; b = m->body_parentid[b])
       if (b == I.robot_root) I.robot_geom[g] = 1;
+  }
+  I.geom_object.assign(m->ngeom, -1);
+  for (size_t i = 0; i < I.obj_geom.size(); ++i) I.geom_object[I.obj_geom[i]] = static_cast<int>(i);
+  // Force groups: the hand is the body the fingers hang from; it, the fingers and anything mounted
+  // below it sense contact as one (a wrist force sensor's view); every other arm body on its own.
+  const int hand = m->body_parentid[m->jnt_bodyid[m->dof_jntid[I.finger_dof[0]]]];
+  I.body_group.assign(m->nbody, -1);
+  for (int b = 1; b < m->nbody; ++b) {
+    int group = -1;
+    for (int a = b; a > 0; a = m->body_parentid[a]) {
+      if (a == hand) group = hand;
+      if (a == I.robot_root) {
+        I.body_group[b] = group >= 0 ? group : b;
+        break;
+      }
+    }
   }
   I.scratch_a.resize(m->nv);
   I.scratch_b.resize(m->nv);
@@ -493,6 +512,43 @@ std::vector<Obstacle> SimWorld::staticObstacles() const {
     o.name = name ? name : "geom" + std::to_string(g);
     out.push_back(o);
   }
+  return out;
+}
+
+double SimWorld::externalForce() const {
+  const Impl& I = *impl_;
+  std::map<int, Vec3> net;  // force on each group, world frame
+  for (int i = 0; i < I.d->ncon; ++i) {
+    const mjContact& c = I.d->contact[i];
+    const int g1 = I.body_group[I.m->geom_bodyid[c.geom1]], g2 = I.body_group[I.m->geom_bodyid[c.geom2]];
+    if ((g1 >= 0) == (g2 >= 0) || c.efc_address < 0) continue;  // robot with robot, or nothing of the robot
+    mjtNum f[6];
+    mj_contactForce(I.m, I.d, i, f);
+    // The contact frame's rows: normal (from geom1 to geom2), then the tangents. The force is
+    // geom1's on geom2.
+    Vec3 F = Vec3::Zero();
+    for (int k = 0; k < 3; ++k) F += f[k] * Vec3(c.frame[3 * k], c.frame[3 * k + 1], c.frame[3 * k + 2]);
+    const int g = g1 >= 0 ? g1 : g2;
+    const auto it = net.try_emplace(g, Vec3::Zero()).first;  // Eigen's default is uninitialized
+    it->second += g1 >= 0 ? Vec3(-F) : F;
+  }
+  double worst = 0;
+  for (const auto& [g, F] : net) worst = std::max(worst, F.norm());
+  return worst;
+}
+
+std::vector<int> SimWorld::objectsTouched() const {
+  const Impl& I = *impl_;
+  std::vector<int> out;
+  for (int i = 0; i < I.d->ncon; ++i) {
+    const mjContact& c = I.d->contact[i];
+    if (c.dist > 0) continue;
+    int o = -1;
+    if (I.robot_geom[c.geom1]) o = I.geom_object[c.geom2];
+    else if (I.robot_geom[c.geom2]) o = I.geom_object[c.geom1];
+    if (o >= 0 && std::find(out.begin(), out.end(), o) == out.end()) out.push_back(o);
+  }
+  std::sort(out.begin(), out.end());
   return out;
 }
 

@@ -103,6 +103,13 @@ class SimWorld {
   /// Static obstacles as the planner should know them (the world body's geoms: table, bins, tray).
   std::vector<Obstacle> staticObstacles() const;
 
+  /// [N] The largest net contact force on one part of the robot from outside it, each arm body on
+  /// its own and the hand with its fingers and what they hold as one (so a grip's squeeze cancels
+  /// and a held object's weight counts, as a wrist force sensor sees them): what a protective stop
+  /// on contact force watches. From the last step's constraint forces.
+  double externalForce() const;
+  /// The objects (indices) a robot geom touches now.
+  std::vector<int> objectsTouched() const;
   /// Episodes of robot vs table/bin/tray penetration (bounces within 0.1 s are one episode).
   int collisionEvents() const;
   const std::vector<std::string>& collisionLog() const;

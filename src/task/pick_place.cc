@@ -174,6 +174,7 @@ class PlanExecution final : public Motion {
 
   void observe(Hardware& hw) override {
     current_->observe(hw);
+    account(hw);
     if (!current_->running()) endStep(hw);
   }
 
@@ -204,8 +205,11 @@ class PlanExecution final : public Motion {
           Failure f = holding ? dropCheck() : Failure{};
           return f.ok() ? pathCheck() : f;
         };
-        current_ = std::make_unique<TrajectoryMotion>(s.trajectory, s.opening, force, monitor, ctx_.robot, 0.3,
-                                                      ctx_.options.path_tolerance);
+        // A contact task (the push) raises the force limit, as Franka users raise the collision
+        // thresholds (setCollisionBehavior) for contact-rich motions.
+        current_ = std::make_unique<TrajectoryMotion>(
+            s.trajectory, s.opening, force, monitor, ctx_.robot, 0.3, ctx_.options.path_tolerance,
+            s.stiff ? ctx_.options.push_force_limit : ctx_.options.contact_force_limit);
         ctx_.gripper_opening = s.opening;
         break;
       }
@@ -225,6 +229,28 @@ class PlanExecution final : public Motion {
         current_.reset();
         break;
     }
+  }
+
+  // Metrics of each step, from the simulator's truth (never used to decide): the largest external
+  // force, touches of objects other than the one picked or held (an episode per onset), and how far
+  // the other objects moved while one was picked.
+  void account(Hardware& hw) {
+    TrialOutcome& out = ctx_.out;
+    out.max_external_force = std::max(out.max_external_force, hw.externalForce());
+    for (int o : hw.objectsTouched()) {
+      // An episode: its onset counts once; touches within 0.1 s of the last belong to it.
+      const auto [it, first] = ctx_.last_touch.try_emplace(o, -1e9);
+      if (o != plan_.object && o != ctx_.held && hw.time() - it->second > 0.1) ++out.non_target_contacts;
+      it->second = hw.time();
+    }
+    if (plan_.name != "pick" || plan_.object < 0) return;
+    if (start_positions_.empty())
+      for (const ObjectState& o : hw.objects()) start_positions_.emplace_back(o.index, o.T_world_object.translation());
+    double moved = 0;
+    for (const auto& [index, p] : start_positions_)
+      if (index != plan_.object) moved = std::max(moved, (hw.object(index).T_world_object.translation() - p).norm());
+    out.neighbours_moved = std::max(out.neighbours_moved, moved);
+    if (ctx_.held == plan_.object) ctx_.held_record.neighbours_moved = std::max(ctx_.held_record.neighbours_moved, moved);
   }
 
   // Books the step that ended; fails the whole execution where it failed.
@@ -381,6 +407,7 @@ class PlanExecution final : public Motion {
   }
 
   TrialContext& ctx_;
+  std::vector<std::pair<int, Vec3>> start_positions_;  // a pick's objects where they were at its first step
   double step_start_ = 0, next_look_ = 0;  // the trajectory step's start; the next obstacle sensing
   Plan plan_;
   size_t next_ = 0, stage_index_ = 0;
@@ -591,6 +618,7 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
   }
   if (!found) {
     last.reason += " (after " + std::to_string(ctx.out.grasp_candidates_tried) + " grasp candidates)";
+    ctx.why_not[object.index] = "grasp: " + last.reason;
     return done(last);
   }
   return done({});
@@ -964,6 +992,7 @@ Failure planPushOf(TrialContext& ctx, const ObjectState& object, Plan& out) {
     out = Plan{};
     out.q_start = ctx.q_rest;
     out.name = "push";
+    out.object = object.index;
     out.bucket = TimeBucket::kPick;
     out.steps.push_back(gripperStep("push_close_gripper", ctx.q_rest, 0.0));
     out.steps.push_back(trajectoryStep("move_prepush", std::move(t_connect), 0.0, false));
@@ -995,6 +1024,7 @@ Failure planPush(TrialContext& ctx, const ObjectState& object, Plan& out) {
     found = f.ok();
     if (found) break;
     if (o == &object) first = f;
+    ctx.why_not[o->index] = "no grasp fits, and no push: " + f.reason;
   }
   st.compute_seconds = since(t);
   ctx.out.plan_pick_time += st.compute_seconds;
@@ -1174,6 +1204,18 @@ void finishTrial(TrialContext& ctx, bool tree_succeeded) {
     }
   }
   out.objects_left_in_bin = objectsInBin(ctx);
+  for (const ObjectState& o : hw.objects()) {
+    if (o.index == ctx.held || !insideCrop(o, ctx.perception)) continue;
+    LeftRecord l;
+    l.object = o.index;
+    l.position = o.T_world_object.translation();
+    double up = 0;
+    for (int a = 0; a < 3; ++a) up = std::max(up, std::abs(o.T_world_object.linear()(2, a)));
+    l.tilt = std::acos(std::min(1.0, up));
+    const auto why = ctx.why_not.find(o.index);
+    l.reason = why != ctx.why_not.end() ? why->second : "not tried";
+    out.left.push_back(l);
+  }
   out.collision_count = hw.collisionEvents();
   out.collision_log = hw.collisionLog();
   out.sim_time = ctx.simTime();

@@ -29,6 +29,12 @@ void TaskOptions::declare(ConfigArchive& a) {
   a.value("place_clearance", place_clearance, {0.0, 0.05}, "m", "object bottom above the tray at the release");
   a.value("path_tolerance", path_tolerance, {0.001, 1.0}, "rad",
           "a joint this far from its setpoint stops the motion (the controller's protective stop, as ros2_control's JTC)");
+  a.value("contact_force_limit", contact_force_limit, {0.0, 1000.0}, "N",
+          "an external contact force on an arm link or the hand past this stops the motion where the joints are "
+          "(a collision reflex, the protective stop on contact force; the held object's weight counts, as a wrist "
+          "sensor sees it; 20 N: libfranka's example collision thresholds); 0: off");
+  a.value("push_force_limit", push_force_limit, {0.0, 1000.0}, "N",
+          "the same limit during a push, a contact task (Franka users raise the thresholds for those); 0: off");
   a.value("scene_update_period", scene_update_period, {0.0, 10.0}, "s",
           "while moving, the robot senses new obstacles this often and stops if one blocks the rest of its path "
           "(MoveIt's planning scene monitor); 0: never");

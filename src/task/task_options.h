@@ -36,6 +36,8 @@ struct TaskOptions {
   bool weld = false;                     ///< weld-on-grasp (attach plugin) instead of friction
   double drop_distance = 0.03;           ///< [m] object this far from its in-hand pose = dropped
   double path_tolerance = 0.05;          ///< [rad] a joint this far from its setpoint stops the motion
+  double contact_force_limit = 20;       ///< [N] an external contact force past this stops the motion (0: off)
+  double push_force_limit = 100;         ///< [N] the same during a push (a contact task)
   double scene_update_period = 0.1;      ///< [s] obstacle sensing while moving (0: none)
   double settle_time = 0.5;              ///< [s] simulated rest before the evaluation
   // The place area: slots in a grid centred on the place target (ComputePlacePosition).

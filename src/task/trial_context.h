@@ -6,6 +6,7 @@
 #pragma once
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -140,6 +141,8 @@ class TrialContext {
   std::vector<Obstacle> seen_obstacles;  ///< obstacles not part of the cell, as last sensed (planned around)
   FaultHooks* faults = nullptr;      ///< fault injection, if any
   int picking = -1;                  ///< the object whose pick is being executed (-1: none)
+  std::map<int, double> last_touch;  ///< per object, when the robot last touched it [s, simulated] (metrics)
+  std::map<int, std::string> why_not;  ///< per object, why its last grasp or push could not be planned
 
   /// What the trial achieved and when (fault recovery is measured against these).
   struct Milestone {

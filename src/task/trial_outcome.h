@@ -27,7 +27,16 @@ struct PickRecord {
   double orientation_error = 0;    ///< [rad] about the object's symmetry
   int grasp_candidates_tried = 0;
   double grasp_opening = 0;        ///< [m] per finger after closing
+  double neighbours_moved = 0;     ///< [m] the farthest another object moved while this one was picked
   std::string reason;              ///< why it is not placed
+};
+
+/// An object still in the bin when the trial ended, and why it was not picked.
+struct LeftRecord {
+  int object = -1;
+  Vec3 position = Vec3::Zero();  ///< [m] world, ground truth
+  double tilt = 0;               ///< [rad] of its axis nearest the vertical from the vertical
+  std::string reason;            ///< its last grasp's or push's failure; "not tried" when none was planned
 };
 
 /// A failure an action reported during the trial, and whether the tree went on after it.
@@ -75,9 +84,13 @@ struct TrialOutcome {
   int collision_count = 0;
   std::vector<std::string> collision_log;
   double max_tracking_error = 0;
+  double max_external_force = 0;  ///< [N] the largest external contact force on the robot (Hardware::externalForce)
+  int non_target_contacts = 0;    ///< episodes of the robot touching an object it was not picking or holding
+  double neighbours_moved = 0;    ///< [m] the farthest an object moved while another was picked (pushes aside)
   long collision_checks = 0;
   double grasp_opening = 0;  ///< [m] per finger after the last close
   std::vector<PickRecord> picks;  ///< every object let go of, in order
+  std::vector<LeftRecord> left;   ///< every object left in the bin at the end
   std::vector<RecordedFailure> failures;
   std::vector<FaultRecord> faults;  ///< injected faults
   // Recovery: failures the tree went on after (see RecordedFailure::handled).

@@ -395,6 +395,11 @@ TEST(TaskTrees, PushObjectMovesACubeAndItIsPickedAfterwards) {
   // Pushed 5 cm, then lifted with the pick (15 cm up, but xy stays): moved about 5 cm on the table.
   EXPECT_GT(moved[0], 0.03) << describe(r.out);
   EXPECT_LT(moved[0], 0.07) << describe(r.out);
+  // The push is a contact task within its force limit, and its own cube is not a stray contact;
+  // the contact force it took is recorded (a lone cube's friction: a few newtons).
+  EXPECT_EQ(r.out.non_target_contacts, 0);
+  EXPECT_GT(r.out.max_external_force, 0.3);
+  EXPECT_LT(r.out.max_external_force, 100);
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 
 #include <cmath>
 
+#include "planning/trajectory.h"
 #include "sim/controllers.h"
 #include "sim/hardware.h"
 
@@ -58,6 +59,44 @@ TEST(SimWorld, DrivingTheHandIntoTheTableCountsOneCollisionEvent) {
   ASSERT_FALSE(w->collisionLog().empty());
   EXPECT_THAT(w->collisionLog()[0], ::testing::HasSubstr("hit table"));
   EXPECT_FALSE(w->unstable());
+}
+
+TEST(SimWorld, AMotionIntoTheTableStopsOnContactForceWhereTheJointsAre) {
+  // The same dive into the table as above, as a trajectory under the protective stop on contact
+  // force (20 N): the motion fails as kContactForce and the arm stays about where it touched, far
+  // short of the trajectory's end; the force seen in free flight is ~0.
+  auto w = world();
+  auto hw = makeMujocoHardware(*w, panda(), {});
+  const int n = 1000;
+  JointTrajectory t = JointTrajectory::startingAt(panda().home(), n, 0.002);
+  for (int k = 0; k < n; ++k) {
+    t.q.col(k) = panda().home();
+    // Smooth from -0.785 to 1.3 rad over 2 s (cosine profile).
+    const double s = 0.5 - 0.5 * std::cos(M_PI * k / (n - 1.0));
+    t.q(1, k) = -0.785398 + s * (1.3 + 0.785398);
+  }
+  differentiate(t);
+  double free_flight = 0;
+  const StepMonitor watch = [&] {
+    if (w->collisionEvents() == 0) free_flight = std::max(free_flight, hw->externalForce());
+    return Failure{};
+  };
+  TrajectoryMotion m(t, 0.04, 40, watch, panda(), 0.3, 0.0, 20.0);
+  runToEnd(*hw, m);
+  EXPECT_EQ(m.state(), MotionState::kFailed);
+  EXPECT_EQ(m.failure().kind, FailureKind::kContactForce) << m.failure().reason;
+  EXPECT_THAT(m.failure().reason, ::testing::HasSubstr("protective stop"));
+  EXPECT_LT(free_flight, 1.0);
+  // Stopped near where the hand met the table (about 0.7 rad; the table top at joint 2 ~ 0.75).
+  EXPECT_LT(hw->jointPositions()[1], 1.0);
+  // Without the limit the same motion drives on into the table (the tracking error alone is off
+  // here): it ends pressing far harder than the stopped arm holds.
+  auto w2 = world();
+  auto hw2 = makeMujocoHardware(*w2, panda(), {});
+  TrajectoryMotion free(t, 0.04, 40, {}, panda(), 0.3, 0.0, 0.0);
+  runToEnd(*hw2, free);
+  const double stopped = hw->externalForce(), driven = hw2->externalForce();
+  EXPECT_GT(driven, 2 * stopped) << "stopped: " << stopped << " N, driven on: " << driven << " N";
 }
 
 TEST(MockHardware, HeldObjectMovesWithTheHandAndRestsWhenReleased) {
