@@ -585,7 +585,9 @@ void registerTaskNodes(Factory& f, TaskNodeEnv& env) {
   add<PushObject>(f, env, "PushObject",
                   "Pushes the detected object at object_pose (else the next object by room that can be) motion.push_distance "
                   "with the closed fingers: down beside it, along a face normal towards room inside the walls (a neighbour "
-                  "in the way is pushed along if it has room), up; at a high joint impedance. RUNNING while the "
+                  "in the way is pushed along if it has room), up; where the fingers have no room beside it and "
+                  "motion.drag_depth is set, it is dragged by its top instead (fingertips pressed into its upper face); "
+                  "at a high joint impedance. RUNNING while the "
                   "arm moves; FAILURE when no direction has room. Perceive again afterwards: the object has moved.");
   add<IsLessThan>(f, env, "IsLessThan", "SUCCESS when key_A < key_B (integers).");
   add<TriggerPointCloud>(f, env, "TriggerPointCloud", "Perceives the bin (as DetectObject, without choosing an object).");

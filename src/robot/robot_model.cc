@@ -194,6 +194,31 @@ Pose RobotModel::fk(const VecX& q) const {
   return T * T_last_tcp_;
 }
 
+double RobotModel::fingertipBelowTcp() const {
+  std::vector<Pose> T;
+  linkPoses(home_, 0.0, T);
+  const Pose T_tcp = fk(home_);
+  const Vec3 z = T_tcp.linear().col(2);
+  double reach = 0;
+  for (const CollisionShape& s : shapes_) {
+    if (links_[s.link].finger_axis.isZero()) continue;
+    const Pose T_shape = T[s.link] * s.T_link_shape;
+    // The shape's farthest point along z: box corners; a sphere's or cylinder's centre plus extent.
+    double far = -1e9;
+    if (s.type == CollisionShape::Type::kBox) {
+      for (int k = 0; k < 8; ++k) {
+        const Vec3 corner(((k & 1) ? 0.5 : -0.5) * s.size.x(), ((k & 2) ? 0.5 : -0.5) * s.size.y(), ((k & 4) ? 0.5 : -0.5) * s.size.z());
+        far = std::max(far, (T_shape * corner - T_tcp.translation()).dot(z));
+      }
+    } else {
+      const double extent = s.type == CollisionShape::Type::kSphere ? s.size.x() : s.size.x() + 0.5 * s.size.y();
+      far = (T_shape.translation() - T_tcp.translation()).dot(z) + extent;
+    }
+    reach = std::max(reach, far);
+  }
+  return reach;
+}
+
 void RobotModel::linkPoses(const VecX& q, double finger_opening, std::vector<Pose>& out) const {
   thread_local std::vector<Pose> F;
   frames(q, F);

@@ -57,6 +57,9 @@ class RobotModel {
   /// Geometric Jacobian of the TCP in the base frame: rows (v; w), dim 6 x dof.
   void jacobian(const VecX& q, Jacobian& J) const;
 
+  /// [m] How far the closed fingers' collision shapes reach past the TCP along its approach (z) axis.
+  double fingertipBelowTcp() const;
+
   const std::vector<LinkInfo>& links() const { return links_; }
   const std::vector<CollisionShape>& collisionShapes() const { return shapes_; }
   int linkIndex(const std::string& name) const;  ///< -1 if absent

@@ -27,9 +27,9 @@ void Motion::fail(const Hardware& hw, Failure failure) {
 
 TrajectoryMotion::TrajectoryMotion(JointTrajectory traj, double gripper_opening, double gripper_force,
                                    StepMonitor monitor, const RobotModel& robot, double settle, double path_tolerance,
-                                   double force_limit)
+                                   double force_limit, bool guarded)
     : traj_(std::move(traj)), opening_(gripper_opening), force_(gripper_force), monitor_(std::move(monitor)),
-      robot_(robot), settle_(settle), path_tolerance_(path_tolerance), force_limit_(force_limit) {}
+      robot_(robot), settle_(settle), path_tolerance_(path_tolerance), force_limit_(force_limit), guarded_(guarded) {}
 
 // Period k takes the state from sample k to sample k+1: the setpoint is the sample due at the
 // period's end (with the acceleration over the period), and the error is measured there. Then the
@@ -76,9 +76,15 @@ void TrajectoryMotion::observe(Hardware& hw) {
       stop(hw);
     }
   }
-  if (force_limit_ > 0 && pending_.ok()) {
+  if (force_limit_ > 0 && pending_.ok() && !touched_down_) {
     const double force = hw.externalForce();
-    if (force > force_limit_) {
+    if (force > force_limit_ && guarded_) {
+      // Touch-down: hold here (the settle below), then succeed.
+      touched_down_ = true;
+      traj_ = JointTrajectory::startingAt(hw.jointPositions(), 1, traj_.dt);
+      streaming_ = false;
+      k_ = 0;
+    } else if (force > force_limit_) {
       pending_ = {"", FailureKind::kContactForce,
                   "protective stop: " + std::to_string(force) + " N of contact force (limit " + std::to_string(force_limit_) + " N)"};
       stop(hw);

@@ -65,9 +65,12 @@ class TrajectoryMotion final : public Motion {
   /// `path_tolerance` [rad]: a joint farther than this from its setpoint fails the motion (kTracking,
   /// after a controlled stop), as ros2_control's JTC aborts on its path tolerance; 0: off.
   /// `force_limit` [N]: an external contact force (Hardware::externalForce) past it fails the motion
-  /// (kContactForce), holding where the joints are, as a collision reflex; 0: off.
+  /// (kContactForce), holding where the joints are, as a collision reflex; 0: off. `guarded`: a
+  /// guarded move (a place descent): that force ends the motion where it is as a success (touch-down).
   TrajectoryMotion(JointTrajectory traj, double gripper_opening, double gripper_force, StepMonitor monitor,
-                   const RobotModel& robot, double settle = 0.3, double path_tolerance = 0, double force_limit = 0);
+                   const RobotModel& robot, double settle = 0.3, double path_tolerance = 0, double force_limit = 0,
+                   bool guarded = false);
+  bool touchedDown() const { return touched_down_; }  ///< a guarded move ended on contact
   bool command(Hardware& hw) override;
   void observe(Hardware& hw) override;
   void halt(Hardware& hw) override;
@@ -80,6 +83,7 @@ class TrajectoryMotion final : public Motion {
   StepMonitor monitor_;
   const RobotModel& robot_;
   double settle_, path_tolerance_, force_limit_;
+  bool guarded_ = false, touched_down_ = false;
   int k_ = 0;            // the sample the joints were last sent to
   bool streaming_ = true;
   double t_settle_ = 0;

@@ -209,7 +209,7 @@ class PlanExecution final : public Motion {
         // thresholds (setCollisionBehavior) for contact-rich motions.
         current_ = std::make_unique<TrajectoryMotion>(
             s.trajectory, s.opening, force, monitor, ctx_.robot, 0.3, ctx_.options.path_tolerance,
-            s.stiff ? ctx_.options.push_force_limit : ctx_.options.contact_force_limit);
+            s.stiff ? ctx_.options.push_force_limit : ctx_.options.contact_force_limit, s.guarded);
         ctx_.gripper_opening = s.opening;
         break;
       }
@@ -785,6 +785,7 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   out.bucket = TimeBucket::kPlace;
   out.steps.push_back(trajectoryStep("move_preplace", std::move(t_connect), 0.0, true));
   out.steps.push_back(trajectoryStep("place", std::move(t_descend), 0.0, true));
+  out.steps.back().guarded = true;  // the held object meeting the surface early is touch-down, not a fault
   out.q_end = descend.waypoints.back();
   out.object = ctx.held;
   out.T_world_target = T_world_object;
@@ -919,10 +920,15 @@ Failure planPushOf(TrialContext& ctx, const ObjectState& object, Plan& out) {
       }
       if (!free) continue;
       const Vec3 to = c + o.push_distance * d;
-      const Vec3 local = T_crop.inverse() * to;
+      const Vec3 local = T_crop.inverse() * to, local_from = T_crop.inverse() * c;
       const double reach = std::max(footprintOf(object).hu, footprintOf(object).hv);
+      // Inside the walls with 5 mm to spare along every axis it moves outward on; along one it
+      // does not (a cube flush in a corner, moved off one wall along the other), as it was.
+      bool inside = true;
+      for (int i = 0; i < 2; ++i)
+        if (std::abs(local[i]) > std::abs(local_from[i]) + 1e-4 && std::abs(local[i]) + reach > crop_half[i] - 0.005) inside = false;
+      if (!inside) continue;
       double room = std::min(crop_half.x() - std::abs(local.x()), crop_half.y() - std::abs(local.y())) - reach;
-      if (room < 0.005) continue;
       for (const ObjectState& b : ctx.objects)
         if (b.index != object.index && !picked(ctx, b.index))
           room = std::min(room, (b.T_world_object.translation() - to).head<2>().norm() - 0.06);
@@ -946,11 +952,11 @@ Failure planPushOf(TrialContext& ctx, const ObjectState& object, Plan& out) {
     // 2.1 cm thick); the checkers prove the fingers clear of the face and the floor.
     Vec3 p0 = c - (extent(d) + 0.02) * d;
     p0.z() = std::max(floor_z + 0.03, c.z());
-    const Pose T0 = makePose(p0, Rt), T1 = makePose(p0 + o.push_distance * d, Rt);
+    Pose T0 = makePose(p0, Rt), T1 = makePose(p0 + o.push_distance * d, Rt);
     Pose T_pre = T0, T_up = T1;
     T_pre.translation().z() += o.approach_distance;
     T_up.translation().z() += o.retreat_distance;
-    const IkResult pre = ikFar(ctx, T_pre, ctx.robot.home());
+    IkResult pre = ikFar(ctx, T_pre, ctx.robot.home());
     if (!pre.ok()) {
       last = {"plan_push", FailureKind::kIk, "pre-push: " + pre.reason};
       continue;
@@ -959,7 +965,34 @@ Failure planPushOf(TrialContext& ctx, const ObjectState& object, Plan& out) {
       last = {"plan_push", FailureKind::kCollision, "pre-push configuration in collision (" + connecting->lastCollision() + ")"};
       continue;
     }
-    const CartesianPath down = planCartesianLine(ctx.robot, *full, pre.q(), T0, ikNear(ctx), o.cartesian);
+    CartesianPath down = planCartesianLine(ctx.robot, *full, pre.q(), T0, ikNear(ctx), o.cartesian);
+    bool drag = false;
+    if (!down.ok && o.drag_depth > 0) {
+      // No room for the fingers beside it: drag it by its top instead. The closed fingertips
+      // (their flat side along d, within the top face: 2.1 x 3.6 cm on a 5 cm face) come down on
+      // the upper face a little behind its centre, press drag_depth into it and slide it along d
+      // by friction (the pads' 1.5 against a bin floor's lower friction; it slides rather than tips
+      // while the floor's friction stays under the face's half width over its height).
+      last = {"plan_push", down.kind, "down beside the object: " + down.reason};
+      const double top = c.z() + (R.transpose() * Vec3::UnitZ()).cwiseAbs().dot(object.half_size);
+      const double tip_below_tcp = ctx.robot.fingertipBelowTcp();
+      Vec3 q0 = c - 0.01 * d;
+      q0.z() = top - o.drag_depth + tip_below_tcp;
+      T0 = makePose(q0, Rt);
+      T1 = makePose(q0 + o.push_distance * d, Rt);
+      T_pre = T0;
+      T_pre.translation().z() += o.approach_distance;
+      T_up = T1;
+      T_up.translation().z() += o.retreat_distance;
+      pre = ikFar(ctx, T_pre, ctx.robot.home());
+      if (!pre.ok() || !connecting->isValid(pre.q())) continue;
+      down = planCartesianLine(ctx.robot, *pushing, pre.q(), T0, ikNear(ctx), o.cartesian);
+      if (!down.ok) {
+        last = {"plan_push", down.kind, "down onto the object's top (drag): " + down.reason};
+        continue;
+      }
+      drag = true;
+    }
     if (!down.ok) {
       last = {"plan_push", down.kind, "down beside the object: " + down.reason};
       continue;
@@ -996,8 +1029,9 @@ Failure planPushOf(TrialContext& ctx, const ObjectState& object, Plan& out) {
     out.bucket = TimeBucket::kPick;
     out.steps.push_back(gripperStep("push_close_gripper", ctx.q_rest, 0.0));
     out.steps.push_back(trajectoryStep("move_prepush", std::move(t_connect), 0.0, false));
-    out.steps.push_back(trajectoryStep("push_down", std::move(t_down), 0.0, false));
-    out.steps.push_back(trajectoryStep("push", std::move(t_push), 0.0, false));
+    out.steps.push_back(trajectoryStep(drag ? "drag_down" : "push_down", std::move(t_down), 0.0, false));
+    out.steps.back().stiff = drag;  // the fingertips end pressing on the top: held firmly there
+    out.steps.push_back(trajectoryStep(drag ? "drag" : "push", std::move(t_push), 0.0, false));
     out.steps.back().stiff = true;
     out.steps.push_back(trajectoryStep("push_up", std::move(t_up), 0.0, false));
     out.q_end = up.waypoints.back();

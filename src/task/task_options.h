@@ -30,6 +30,7 @@ struct TaskOptions {
   double place_clearance = 0.005;        ///< [m] object bottom above the surface at release
   double retreat_distance = 0.10;        ///< [m]
   double push_distance = 0.05;           ///< [m] how far a push moves an object
+  double drag_depth = 0.0;               ///< [m] a drag's fingertips this far into the object's top (0: no drags)
   double grasp_force = 40.0;             ///< [N] per finger
   double finger_margin = 0.012;          ///< [m] per finger beyond the object's half width when open
   double tight_margin = 0.0;             ///< [m] finger margin and approach padding when nothing fits otherwise (0: never; clutter: 0.004)

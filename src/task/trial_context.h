@@ -43,6 +43,7 @@ struct PlanStep {
   double expected_opening = -1; ///< kGripper closing on an object: its half width across the fingers [m]
   bool take_hold = false;       ///< kGripper closing: a perceived object left between the fingers becomes the held one
   bool stiff = false;           ///< kTrajectory: a contact task (a push): high joint impedance (Hardware::setStiff)
+  bool guarded = false;         ///< kTrajectory: a guarded move (the place descent): contact force past the limit ends it as touch-down
 };
 
 /// What a trial's compute and execution times are booked under (the source's breakdown).

@@ -5,6 +5,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <functional>
+
 #include <cmath>
 #include <filesystem>
 
@@ -41,7 +43,9 @@ struct Result {
 
 // One trial of the quickstart cell with `tree` (a file under experiments/trees/ or inline XML).
 // `moved`, when given: how far each object in play moved on the table (xy) during the trial.
-Result runTree(const std::string& tree, std::vector<std::string> sets, uint64_t trial, std::vector<double>* moved = nullptr) {
+/// `arrange` may move the spawned objects (their pool indices) before the trial starts.
+Result runTree(const std::string& tree, std::vector<std::string> sets, uint64_t trial, std::vector<double>* moved = nullptr,
+               const std::function<void(SimWorld&, const std::vector<int>&)>& arrange = {}) {
   const bool file = tree.find('<') == std::string::npos;
   if (file) sets.push_back("tree=experiments/trees/" + tree);
   const Experiment e = loadExperiment("experiments/quickstart.yaml", sets);
@@ -58,6 +62,7 @@ Result runTree(const std::string& tree, std::vector<std::string> sets, uint64_t 
   Rng rng = Rng::stream(e.seed, trial, Purpose::kScene);
   const SpawnResult spawn = spawnObjects(*world, robot, cell.T_world_bin, cell.bin_half, rng, e.spawn);
   EXPECT_TRUE(spawn.ok) << spawn.reason;
+  if (arrange) arrange(*world, spawn.active);
   auto backend = e.hardware == "mock" ? makeMockHardware(*world, robot, spawn.active)
                                       : makeMujocoHardware(*world, robot, spawn.active);
   RecordingHardware hw(*backend);
@@ -400,6 +405,34 @@ TEST(TaskTrees, PushObjectMovesACubeAndItIsPickedAfterwards) {
   EXPECT_EQ(r.out.non_target_contacts, 0);
   EXPECT_GT(r.out.max_external_force, 0.3);
   EXPECT_LT(r.out.max_external_force, 100);
+}
+
+TEST(TaskTrees, ACubeFlushInACornerIsDraggedClearThenPicked) {
+  // One cube flush in the bin's corner (bin_clearing.xml: inner walls at x 0.35..0.65, y -0.40..-0.10):
+  // every grasp puts a finger against a wall and the closed fingers have no room beside it, so
+  // PushObject drags it by its top away from the walls; then it is grasped.
+  const std::string xml = R"(<root BTCPP_format="4" main_tree_to_execute="T"><BehaviorTree ID="T"><Sequence>
+      <DetectObject object_pose="{p}"/>
+      <Inverter><IsGraspable object_pose="{p}"/></Inverter>
+      <PushObject object_pose="{p}"/>
+      <MoveToHome/>
+      <DetectObject object_pose="{p}"/>
+      <IsGraspable object_pose="{p}"/>
+      <PlanAndExecutePick object_pose="{p}"/>
+    </Sequence></BehaviorTree></root>)";
+  std::vector<double> moved;
+  const auto corner = [](SimWorld& w, const std::vector<int>& active) {
+    w.setObjectPose(active.at(0), makePose(Vec3(0.65 - 0.0255, -0.10 - 0.0255, 0.035), Mat3::Identity()));
+  };
+  const Result r = runTree(xml, withCubes({"scene=scenes/bin_clearing.xml", "motion.drag_depth=0.002"}, 1), 0, &moved, corner);
+  EXPECT_EQ(r.out.tree_status, "SUCCESS") << describe(r.out);
+  EXPECT_EQ(r.out.pushes, 1);
+  EXPECT_TRUE(std::any_of(r.out.stages.begin(), r.out.stages.end(), [](const StageRecord& s) { return s.name == "drag" && s.ok; }))
+      << describe(r.out);
+  EXPECT_EQ(r.out.collision_count, 0) << ::testing::PrintToString(r.out.collision_log);
+  EXPECT_LT(r.out.max_external_force, 100);
+  ASSERT_EQ(moved.size(), 1u);
+  EXPECT_GT(moved[0], 0.03) << describe(r.out);
 }
 
 }  // namespace
