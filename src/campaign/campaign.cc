@@ -132,6 +132,10 @@ std::string summaryTable(const CampaignSummary& s) {
   t << "  Collisions:        " << s.collision_events << " events in " << n << " trials\n";
   t << "  Objects placed:    " << s.objects_placed << " (" << s.objects_left_in_bin << " left in bins; " << s.bins_cleared << " of "
     << n << " bins empty)\n";
+  if (s.objects_spawned > 0)
+    t << "  Object Yield:      " << std::setprecision(1) << 100 * s.object_yield << "%  [95% CI " << 100 * s.object_yield_ci95.at(0)
+      << ", " << 100 * s.object_yield_ci95.at(1) << "]; first-pass " << 100 * s.object_first_pass_yield << "% [95% CI "
+      << 100 * s.object_first_pass_ci95.at(0) << ", " << 100 * s.object_first_pass_ci95.at(1) << "]\n";
   t << "  Max Tracking Err:  " << std::setprecision(4) << s.max_tracking_error << " rad\n";
   if (!s.faults.empty()) {
     t << std::string(64, '-') << "\n  Faults: injected, detected; recovered of those judged (unrecoverable kinds:\n"

@@ -84,6 +84,7 @@ void TrialRecord::describe(RecordArchive& a) {
     p.field("grasp_candidates_tried", k.grasp_candidates_tried, "", "for this object");
     p.field("grasp_opening", k.grasp_opening, "m", "per finger when it was grasped");
     p.field("neighbours_moved", k.neighbours_moved, "m", "the farthest another object moved while this one was picked");
+    p.field("first_pass", k.first_pass, "", "let go of at its target with no failure recorded since the previous object was");
     p.field("reason", k.reason, "", "why it is not placed");
   }, "every object let go of, in order");
   long placed = std::count_if(o.picks.begin(), o.picks.end(), [](const PickRecord& p) { return p.placed; });
@@ -215,6 +216,15 @@ void CampaignSummary::describe(RecordArchive& a) {
   a.field("non_target_contacts_per_trial", non_target_contacts_per_trial, "", "touches of objects other than the one picked or held");
   a.field("neighbours_moved_mm_max", neighbours_moved_mm_max, "mm", "the farthest an object moved while another was picked");
   a.field("objects_placed", objects_placed, "", "");
+  a.field("objects_spawned", objects_spawned, "", "objects in the bins at the trials' starts");
+  a.object("object_yield", [&](RecordArchive& y) {
+    y.field("value", object_yield, "", "objects placed / objects spawned (bin clearing's yield)");
+    y.field("ci95", object_yield_ci95, "", "Wilson 95% interval");
+  }, "");
+  a.object("object_first_pass_yield", [&](RecordArchive& y) {
+    y.field("value", object_first_pass_yield, "", "objects placed with no failure since the previous placement / objects spawned");
+    y.field("ci95", object_first_pass_ci95, "", "Wilson 95% interval");
+  }, "");
   a.field("objects_left_in_bin", objects_left_in_bin, "", "");
   a.field("bins_cleared", bins_cleared, "", "trials that ended with the bin empty");
   a.field("timeouts", timeouts, "", "trials past the simulated-time budget");
@@ -410,6 +420,8 @@ void SummaryBuilder::add(const TrialRecord& r) {
   s.collision_events += o.collision_count;
   const long placed = std::count_if(o.picks.begin(), o.picks.end(), [](const PickRecord& p) { return p.placed; });
   s.objects_placed += placed;
+  s.objects_spawned += r.objects_in_bin;
+  objects_first_pass_ += std::count_if(o.picks.begin(), o.picks.end(), [](const PickRecord& p) { return p.placed && p.first_pass; });
   if (std::isfinite(o.total_time)) all_time_ += static_cast<SummaryBuilder::Int128>(std::llround(o.total_time * 1e9));
   if (std::isfinite(o.sim_time)) sim_total_ += static_cast<SummaryBuilder::Int128>(std::llround(o.sim_time * 1e9));
   s.objects_left_in_bin += o.objects_left_in_bin;
@@ -488,6 +500,15 @@ CampaignSummary SummaryBuilder::get() const {
   s.overall_yield = n ? double(s.successes) / n : 0.0;
   s.first_pass_ci95 = {fl, fh};
   s.overall_ci95 = {ol, oh};
+  {
+    const long m = s.objects_spawned, placed = std::min(s.objects_placed, m), first = std::min(objects_first_pass_, m);
+    const auto [pl, ph] = wilson95(placed, m);
+    const auto [ql, qh] = wilson95(first, m);
+    s.object_yield = m ? double(placed) / m : 0.0;
+    s.object_first_pass_yield = m ? double(first) / m : 0.0;
+    s.object_yield_ci95 = {pl, ph};
+    s.object_first_pass_ci95 = {ql, qh};
+  }
   s.recovery_rate = s.recoveries_needed ? double(s.recovered) / s.recoveries_needed : -1;
   const Moments c = cycle_.get(), m = sim_.get(), pm = place_mm_.get(), od = orient_deg_.get();
   s.cycle_mean = c.mean, s.cycle_std = c.std, s.cycle_max = c.max;

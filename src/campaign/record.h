@@ -36,7 +36,7 @@ class RecordArchive {
   virtual bool reading() const { return false; }
 };
 
-constexpr int kTrialSchema = 5;  // 3: attempts, failure kinds crash and hang; 4: picks' offset; 5: forces, contacts
+constexpr int kTrialSchema = 6;  // 3: attempts, failure kinds crash and hang; 4: picks' offset; 5: forces, contacts; 6: picks' first_pass
 
 /// One trial as trials.jsonl holds it.
 struct TrialRecord {
@@ -94,6 +94,9 @@ struct CampaignSummary {
   double max_external_force = 0;   ///< [N] over the trials
   double non_target_contacts_per_trial = 0;
   double neighbours_moved_mm_max = 0;
+  long objects_spawned = 0;
+  double object_yield = 0, object_first_pass_yield = 0;
+  std::vector<double> object_yield_ci95, object_first_pass_ci95;
   double wall_seconds = 0, trials_per_second = 0;
   std::string minimanip, mujoco, ompl, compiler, cpu, host;
   long cores = 0, jobs = 0;
@@ -115,7 +118,7 @@ class SummaryBuilder {
   std::map<std::string, ExactMoments> parts_, mttr_;
   std::map<std::string, FaultStats> kinds_;
   Int128 all_time_ = 0, sim_total_ = 0;
-  long unrecovered_failures_ = 0, non_target_contacts_ = 0;
+  long unrecovered_failures_ = 0, non_target_contacts_ = 0, objects_first_pass_ = 0;
 };
 
 /// The statistics of `trials` (a SummaryBuilder fed with each).

@@ -345,6 +345,8 @@ class PlanExecution final : public Motion {
     r.at_target = ctx_.over_target.has_value();
     if (r.at_target) {
       r.T_world_target = *ctx_.over_target;
+      r.first_pass = ctx_.out.failures.size() == ctx_.failures_at_last_place;
+      ctx_.failures_at_last_place = ctx_.out.failures.size();
       ctx_.milestone("place");
     } else {
       forget(ctx_.held);

@@ -28,6 +28,7 @@ struct PickRecord {
   int grasp_candidates_tried = 0;
   double grasp_opening = 0;        ///< [m] per finger after closing
   double neighbours_moved = 0;     ///< [m] the farthest another object moved while this one was picked
+  bool first_pass = false;         ///< let go of at its target with no failure since the previous one was
   std::string reason;              ///< why it is not placed
 };
 
