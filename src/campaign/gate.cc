@@ -347,6 +347,11 @@ GateResult runGate(const GateOptions& o) {
              });
   requireChoices(t.counters, gateCounterNames(), o.thresholds + ": baseline.counters");
   requireChoices(t.timings, gateTimingNames(), o.thresholds + ": baseline.timings");
+  {
+    std::vector<std::string> keys = {"robot", "scene", "tree"};
+    for (const ParamDecl& d : experimentParams()) keys.push_back(d.key);
+    requireChoices(t.config_may_differ, keys, o.thresholds + ": baseline.config_may_differ");
+  }
   const std::string baseline_path = !o.baseline.empty() ? o.baseline : t.baseline;
   if (t.experiment != "any" && t.experiment != run.experiment)
     throw InputError(o.thresholds, "thresholds for experiment '" + t.experiment + "', but " + dir.string() + " ran '" +

@@ -78,7 +78,9 @@ void TrajectoryMotion::observe(Hardware& hw) {
   }
   if (force_limit_ > 0 && pending_.ok() && !touched_down_) {
     const double force = hw.externalForce();
-    if (force > force_limit_ && guarded_) {
+    // Touch-down is the hand (and what it holds) meeting the surface; a force on another link
+    // past the limit is a collision even in a guarded move.
+    if (force > force_limit_ && guarded_ && hw.handForce() >= force) {
       // Touch-down: hold here (the settle below), then succeed.
       touched_down_ = true;
       traj_ = JointTrajectory::startingAt(hw.jointPositions(), 1, traj_.dt);

@@ -52,6 +52,7 @@ class MujocoHardware final : public HardwareBase {
   double gripperForce() const override { return w_.fingerForce(); }
   Vec3 objectVelocity(int i) const override { return w_.objectVelocity(i); }
   double externalForce() const override { return w_.externalForce(); }
+  double handForce() const override { return w_.handForce(); }
   // The setpoint is where the joints should be at the end of the period; the servo tracks the
   // reference at its start (the previous setpoint) with the period's acceleration as feed-forward.
   void step() override {
@@ -76,6 +77,7 @@ class MockHardware final : public HardwareBase {
   double gripperForce() const override { return held_ >= 0 ? grip_force_ : 0.0; }
   Vec3 objectVelocity(int i) const override { return i == held_ ? held_velocity_ : Vec3::Zero(); }
   double externalForce() const override { return 0; }  // kinematic: no forces
+  double handForce() const override { return 0; }
   void attach(int, bool) override {}  // a held object already moves with the hand
   void setStiff(bool) override {}     // joints follow commands exactly
 

@@ -51,6 +51,8 @@ class Hardware {
   /// sensor's view: the held object's weight counts, the grip's squeeze cancels); 0 where the
   /// backend has no forces (mock).
   virtual double externalForce() const = 0;
+  /// [N] the same on the hand with its fingers and what they hold only (0 on mock).
+  virtual double handForce() const = 0;
   /// The objects the robot touches now (ground truth: for metrics, never for decisions).
   virtual std::vector<int> objectsTouched() const = 0;
   virtual int collisionEvents() const = 0;
@@ -84,6 +86,7 @@ class ForwardingHardware : public Hardware {
   Pose tcpPose() const override { return in_.tcpPose(); }
   std::vector<Obstacle> obstacles() const override { return in_.obstacles(); }
   double externalForce() const override { return in_.externalForce(); }
+  double handForce() const override { return in_.handForce(); }
   std::vector<int> objectsTouched() const override { return in_.objectsTouched(); }
   int collisionEvents() const override { return in_.collisionEvents(); }
   const std::vector<std::string>& collisionLog() const override { return in_.collisionLog(); }

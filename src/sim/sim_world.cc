@@ -67,6 +67,7 @@ struct SimWorld::Impl {
   std::vector<char> robot_geom, static_geom, foreign_geom;
   std::vector<int> geom_object;  ///< the object index of an object's geom, else -1
   std::vector<int> body_group;   ///< a robot body's force group: the hand for the hand and what it carries, else itself; -1 off the robot
+  int hand_body = -1;
   int robot_root = -1;
   ServoGains gains;
   bool stiff = false;
@@ -217,6 +218,7 @@ std::unique_ptr<SimWorld> SimWorld::load(const std::string& scene_xml, const Rob
   // Force groups: the hand is the body the fingers hang from; it, the fingers and anything mounted
   // below it sense contact as one (a wrist force sensor's view); every other arm body on its own.
   const int hand = m->body_parentid[m->jnt_bodyid[m->dof_jntid[I.finger_dof[0]]]];
+  I.hand_body = hand;
   I.body_group.assign(m->nbody, -1);
   for (int b = 1; b < m->nbody; ++b) {
     int group = -1;
@@ -515,7 +517,11 @@ std::vector<Obstacle> SimWorld::staticObstacles() const {
   return out;
 }
 
-double SimWorld::externalForce() const {
+double SimWorld::externalForce() const { return contactForces().first; }
+
+double SimWorld::handForce() const { return contactForces().second; }
+
+std::pair<double, double> SimWorld::contactForces() const {
   const Impl& I = *impl_;
   std::map<int, Vec3> net;  // force on each group, world frame
   for (int i = 0; i < I.d->ncon; ++i) {
@@ -532,9 +538,14 @@ double SimWorld::externalForce() const {
     const auto it = net.try_emplace(g, Vec3::Zero()).first;  // Eigen's default is uninitialized
     it->second += g1 >= 0 ? Vec3(-F) : F;
   }
-  double worst = 0;
-  for (const auto& [g, F] : net) worst = std::max(worst, F.norm());
-  return worst;
+  double worst = 0, hand = 0;
+  for (const auto& [g, F] : net) {
+    const double f = F.norm();
+    if (!std::isfinite(f)) continue;  // a diverging state is the instability monitor's to report
+    worst = std::max(worst, f);
+    if (g == I.hand_body) hand = f;
+  }
+  return {worst, hand};
 }
 
 std::vector<int> SimWorld::objectsTouched() const {

@@ -4,6 +4,7 @@
 // MuJoCo stays inside sim_world.cc.
 #pragma once
 #include <memory>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -108,6 +109,10 @@ class SimWorld {
   /// and a held object's weight counts, as a wrist force sensor sees them): what a protective stop
   /// on contact force watches. From the last step's constraint forces.
   double externalForce() const;
+  /// [N] The hand group's alone (what a guarded move's touch-down watches).
+  double handForce() const;
+  /// Both: {the largest, the hand's}.
+  std::pair<double, double> contactForces() const;
   /// The objects (indices) a robot geom touches now.
   std::vector<int> objectsTouched() const;
   /// Episodes of robot vs table/bin/tray penetration (bounces within 0.1 s are one episode).

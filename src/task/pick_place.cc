@@ -236,7 +236,7 @@ class PlanExecution final : public Motion {
   // the other objects moved while one was picked.
   void account(Hardware& hw) {
     TrialOutcome& out = ctx_.out;
-    out.max_external_force = std::max(out.max_external_force, hw.externalForce());
+    if (const double f = hw.externalForce(); std::isfinite(f)) out.max_external_force = std::max(out.max_external_force, f);
     for (int o : hw.objectsTouched()) {
       // An episode: its onset counts once; touches within 0.1 s of the last belong to it.
       const auto [it, first] = ctx_.last_touch.try_emplace(o, -1e9);
@@ -248,7 +248,7 @@ class PlanExecution final : public Motion {
       for (const ObjectState& o : hw.objects()) start_positions_.emplace_back(o.index, o.T_world_object.translation());
     double moved = 0;
     for (const auto& [index, p] : start_positions_)
-      if (index != plan_.object) moved = std::max(moved, (hw.object(index).T_world_object.translation() - p).norm());
+      if (index != plan_.object && index != ctx_.held) moved = std::max(moved, (hw.object(index).T_world_object.translation() - p).norm());
     out.neighbours_moved = std::max(out.neighbours_moved, moved);
     if (ctx_.held == plan_.object) ctx_.held_record.neighbours_moved = std::max(ctx_.held_record.neighbours_moved, moved);
   }
@@ -271,6 +271,7 @@ class PlanExecution final : public Motion {
       return fail(hw, f);
     }
     if (m->halted()) return;
+    if (s.guarded && static_cast<const TrajectoryMotion&>(*m).touchedDown()) reanchor(hw, s);
     if (s.kind == PlanStep::Kind::kGripper) {
       const double opening = static_cast<GripperMotion&>(*m).opening();
       if (s.release) letGo();
@@ -288,6 +289,19 @@ class PlanExecution final : public Motion {
                                   "the fingers did not close (still " + std::to_string(opening * 1000) + " mm open)"});
       }
     }
+  }
+
+  // A guarded step ended at touch-down, short of its planned end: the rest of the plan (the release
+  // held there, the retreat from there) moves by the same joint offset, so nothing jumps back down
+  // to the planned bottom, and the plan ends where the arm really is.
+  void reanchor(Hardware& hw, const PlanStep& s) {
+    const VecX offset = hw.commandedPositions() - s.trajectory.q.col(s.trajectory.size() - 1);
+    for (size_t k = next_; k < plan_.steps.size(); ++k) {
+      PlanStep& later = plan_.steps[k];
+      if (later.q_hold.size() == offset.size()) later.q_hold += offset;
+      if (later.trajectory.size() > 0) later.trajectory.q.colwise() += offset;
+    }
+    if (plan_.q_end.size() == offset.size()) plan_.q_end += offset;
   }
 
   void attach(Hardware& hw) {

@@ -26,7 +26,7 @@ void TaskOptions::declare(ConfigArchive& a) {
   a.value("retreat_distance", retreat_distance, {0.02, 0.3}, "m", "straight retreat after the release (and MoveToSafe's)");
   a.value("push_distance", push_distance, {0.01, 0.2}, "m",
           "how far PushObject moves an object no grasp fits (closed fingers, along a face normal, towards free room)");
-  a.value("drag_depth", drag_depth, {0.0, 0.01}, "m",
+  a.value("drag_depth", drag_depth, {0.0, 0.005}, "m",
           "when the fingers have no room beside an object to push it, PushObject may drag it by its top: the closed "
           "fingertips pressed this far into its upper face, then moved along (friction; needs a bin floor less grippy "
           "than the pads); 0: no drags");

@@ -143,8 +143,8 @@ class TrialContext {
   FaultHooks* faults = nullptr;      ///< fault injection, if any
   int picking = -1;                  ///< the object whose pick is being executed (-1: none)
   std::map<int, double> last_touch;  ///< per object, when the robot last touched it [s, simulated] (metrics)
-  std::map<int, std::string> why_not;
-  size_t failures_at_last_place = 0;  ///< out.failures' size when the last object was let go of at its target  ///< per object, why its last grasp or push could not be planned
+  std::map<int, std::string> why_not;  ///< per object, why its last grasp or push could not be planned
+  size_t failures_at_last_place = 0;   ///< out.failures' size when the last object was let go of at its target
 
   /// What the trial achieved and when (fault recovery is measured against these).
   struct Milestone {

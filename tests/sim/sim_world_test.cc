@@ -99,6 +99,51 @@ TEST(SimWorld, AMotionIntoTheTableStopsOnContactForceWhereTheJointsAre) {
   EXPECT_GT(driven, 2 * stopped) << "stopped: " << stopped << " N, driven on: " << driven << " N";
 }
 
+JointTrajectory dive(double to = 1.3) {
+  // Joint 2 pitched forward from home over 2 s (cosine profile): the hand sweeps down and forward.
+  const int n = 1000;
+  JointTrajectory t = JointTrajectory::startingAt(panda().home(), n, 0.002);
+  for (int k = 0; k < n; ++k) {
+    t.q.col(k) = panda().home();
+    const double s = 0.5 - 0.5 * std::cos(M_PI * k / (n - 1.0));
+    t.q(1, k) = -0.785398 + s * (to + 0.785398);
+  }
+  differentiate(t);
+  return t;
+}
+
+TEST(SimWorld, AGuardedDescentEndsAtTouchDownOnlyWhenTheHandTouches) {
+  // A guarded move (a place descent): the fingers meeting a surface is touch-down, a success, with
+  // the arm held where it touched; another link hitting something is still a protective stop.
+  {
+    auto w = world();
+    // A column whose top the fingertips meet 10 cm into the dive (joint 2 at -0.5 rad).
+    VecX q = panda().home();
+    q[1] = -0.5;
+    const Vec3 tcp = panda().fk(q).translation();
+    const Vec3 half = w->obstacleHalfSize(0);
+    w->placeObstacle(0, makePose(Vec3(tcp.x(), tcp.y(), tcp.z() - 0.02 - half.z()), Mat3::Identity()));
+    auto hw = makeMujocoHardware(*w, panda(), {});
+    TrajectoryMotion m(dive(), 0.0, 40, {}, panda(), 0.3, 0.0, 20.0, /*guarded=*/true);
+    runToEnd(*hw, m);
+    EXPECT_EQ(m.state(), MotionState::kSucceeded) << m.failure().reason << ::testing::PrintToString(w->collisionLog());
+    EXPECT_TRUE(m.touchedDown());
+    EXPECT_LT(m.duration(), 2.0);  // the trajectory alone takes 2 s
+    EXPECT_LT(hw->jointPositions()[1], -0.3);
+    EXPECT_LT((hw->commandedPositions() - hw->jointPositions()).cwiseAbs().maxCoeff(), 0.02);
+  }
+  {
+    // The plain dive: link 7 meets the table before the hand does.
+    auto w = world();
+    auto hw = makeMujocoHardware(*w, panda(), {});
+    TrajectoryMotion m(dive(), 0.04, 40, {}, panda(), 0.3, 0.0, 20.0, /*guarded=*/true);
+    runToEnd(*hw, m);
+    EXPECT_EQ(m.state(), MotionState::kFailed);
+    EXPECT_EQ(m.failure().kind, FailureKind::kContactForce) << m.failure().reason;
+    EXPECT_FALSE(m.touchedDown());
+  }
+}
+
 TEST(MockHardware, HeldObjectMovesWithTheHandAndRestsWhenReleased) {
   auto w = world();
   const Pose T_tcp = panda().fk(panda().home());
