@@ -20,7 +20,7 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
   if (experiment.hardware != "mujoco") throw InputError(experiment.file, "the harness benchmark needs hardware: mujoco");
   Experiment e = experiment;
   e.bt_log = "all";  // the tree's cost is measured with every trial's SQLite log written
-  const RobotModel robot = RobotModel::load(e.robot_path);
+  const RobotModel robot = loadExperimentRobot(e);
   auto world = SimWorld::load(e.scene_path, robot);
   const Cell cell = makeCell(e, robot, *world);
   const bt::TreeDocument tree = loadTree(e);

@@ -225,7 +225,8 @@ bool runOnlyKey(const std::string& key) {
   return key == "trials" || key == "only" || key == "shard" || key == "jobs" || key == "progress" || key == "watchdog";
 }
 
-/// Every key's value as used; the robot, scene and tree by their files' contents.
+/// Every key's value as used; the robot, its gripper (the arm's default too), scene and tree by
+/// their files' contents.
 json fingerprintOf(const Experiment& e) {
   json f = json::object();
   for (const ParamDecl& d : e.params.decls()) {
@@ -233,6 +234,7 @@ json fingerprintOf(const Experiment& e) {
     f[d.key] = e.params.getString(d.key);
   }
   f["robot"] = "contents " + fileDigest(e.robot_path);
+  f["gripper"] = "contents " + fileDigest(loadRobotSpec(e.robot_path, e.gripper_path == "default" ? "" : e.gripper_path).gripper.file);
   f["scene"] = "contents " + fileDigest(e.scene_path);
   f["tree"] = "contents " + fileDigest(e.tree_path);
   return f;
@@ -471,7 +473,7 @@ int runWorker(const Experiment& e, const std::string& out_dir) {
   FILE* to_supervisor = fdopen(protocol, "w");
   if (!to_supervisor) return 1;
   const fs::path out(out_dir);
-  const RobotModel robot = RobotModel::load(e.robot_path);
+  const RobotModel robot = loadExperimentRobot(e);
   auto world = SimWorld::load(e.scene_path, robot);
   const Cell cell = makeCell(e, robot, *world);
   const bt::TreeDocument tree = loadTree(e);
@@ -504,7 +506,7 @@ int runWorker(const Experiment& e, const std::string& out_dir) {
 }
 
 void checkCampaignInput(const Experiment& e) {
-  const RobotModel robot = RobotModel::load(e.robot_path);
+  const RobotModel robot = loadExperimentRobot(e);
   const auto world = SimWorld::load(e.scene_path, robot);
   makeCell(e, robot, *world);
   loadTree(e);

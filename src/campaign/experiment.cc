@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <sstream>
 #include <thread>
 
 #include "core/error.h"
@@ -21,8 +22,9 @@ void Experiment::declare(ConfigArchive& a) {
           "`minimanip merge` joins the shards' folders (--shard 1/4); 0/1: every trial");
   a.value("seed", seed, {0, 9.007e15}, "", "campaign seed; every random choice derives from (seed, trial, purpose)");
   a.choice("hardware", hardware, hardwareNames(), "mujoco: physics; mock: joints follow commands exactly");
-  a.path("robot", robot_path, "robot YAML (a path in a file is relative to the file; --set, to the working directory; the default, to the project root)");
-  a.path("scene", scene_path, "scene MJCF (includes the robot); paths as for robot");
+  a.path("robot", robot_path, "robot (arm) YAML (a path in a file is relative to the file; --set, to the working directory; the default, to the project root)");
+  a.path("gripper", gripper_path, "gripper YAML mounted on the arm's flange; default: the arm's own (its YAML's gripper:); paths as for robot");
+  a.path("scene", scene_path, "scene MJCF, the world only: the harness mounts the robot at its robot_mount site; paths as for robot");
   a.path("tree", tree_path, "behavior tree (BT.CPP v4 XML) run for each trial; paths as for robot. The default is the source's MiniManip tree");
   a.value("jobs", jobs, {0, 64}, "", "worker processes running trials in parallel, 0: one per core (outcomes do not depend on it)");
   a.value("watchdog", watchdog, {1, 1e6}, "s",
@@ -53,6 +55,18 @@ void Experiment::declare(ConfigArchive& a) {
   a.choice("log", bt_log, {"none", "failed_or_recovered", "all"},
            "which trials keep their tree's transitions as results/<name>/bt/trial_<N>.db3 (BT.CPP's SqliteLogger schema, Groot2)");
   a.leave();
+}
+
+RobotModel loadExperimentRobot(const Experiment& e) {
+  RobotModel robot = RobotModel::load(e.robot_path, e.gripper_path == "default" ? "" : e.gripper_path);
+  const GripperSpec& g = robot.spec().gripper;
+  if (e.task.grasp_force > g.max_force)
+  {
+    std::ostringstream o;
+    o << "grasp.force " << e.task.grasp_force << " N is past the gripper's limit (" << g.max_force << " N, " << g.file << ")";
+    throw InputError(e.file, o.str());
+  }
+  return robot;
 }
 
 std::vector<ParamDecl> experimentParams() {
@@ -112,7 +126,9 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
                                                      " cells, expected at most 256");
   }
   readConfig(p, [&](ConfigArchive& a) { e.declare(a); },
-             [&](const std::string& key, const std::string& value) { return resolvePath(value, p.origin(key)); });
+             [&](const std::string& key, const std::string& value) {
+               return key == "gripper" && value == "default" ? value : resolvePath(value, p.origin(key));
+             });
   e.file = path;
   e.sweep = p.sweeps();
   e.params = std::move(p);

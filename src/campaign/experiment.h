@@ -28,6 +28,7 @@ struct Experiment {
   /// Paths, resolved: set in the file, against its folder; by --set, against the working
   /// directory; left default, against the project root.
   std::string robot_path = "robots/panda/panda.yaml";
+  std::string gripper_path = "default";  ///< "default": the robot's own gripper
   std::string scene_path = "scenes/bin_table.xml";
   std::string tree_path = "experiments/trees/mini_manip.xml";
   int jobs = 0;  ///< 0: one per core
@@ -57,6 +58,9 @@ struct Experiment {
 
 /// The declarations (also printed by `minimanip config-doc` for the README).
 std::vector<ParamDecl> experimentParams();
+/// The experiment's robot with its gripper; throws InputError when the grasp force is past the
+/// gripper's limit.
+RobotModel loadExperimentRobot(const Experiment& e);
 
 /// Loads `path`, applies `sets` ("key=value") and `sweeps` ("key=a,b,c", added to the file's
 /// sweep unless `file_sweep` is false: then the file's sweep: map is ignored, as for one cell of it),

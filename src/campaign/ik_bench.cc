@@ -122,7 +122,7 @@ std::string cpuModel() {
 }  // namespace
 
 void IkBenchOptions::declare(ConfigArchive& a) {
-  a.value("robot", robot, "a robot's name under robots/ (panda) or the path of its YAML");
+  a.value("robot", robot, "a robot's name under robots/ (panda, ur5e) or the path of its YAML");
   a.path("scene", scene, "scene MJCF of the bin set's grasp and place poses");
   a.choice("tip", tip, {"tcp", "flange"}, "the frame the poses are for (published KDL/TRAC-IK figures are for the flange)");
   a.value("poses", poses, {1, 1e7}, "", "poses per set");

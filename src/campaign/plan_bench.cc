@@ -87,7 +87,7 @@ std::vector<Problem> makeProblems(const RobotModel& robot, SimWorld& world, int 
   const auto [T_bin, half] = world.site("bin_region");
   const auto [T_place, place_half] = world.site("place_target");
   const std::vector<Obstacle> scene_statics = world.staticObstacles();
-  auto ik = makeIkSolver("analytic", robot);
+  auto ik = makeIkSolver("auto", robot);
   std::vector<Problem> out;
   Rng rng(mixSeed(seed, 2024, 0));
   Rng clutter_rng(mixSeed(seed, 2024, 1));

@@ -9,10 +9,11 @@
 namespace mm {
 
 std::vector<std::string> ikSolverNames() {
-  return {"analytic", "dls", "hybrid", "kdl", "kdl_restarts", "trac_ik", "trac_ik_distance"};
+  return {"auto", "analytic", "dls", "hybrid", "kdl", "kdl_restarts", "trac_ik", "trac_ik_distance"};
 }
 
 std::unique_ptr<IkSolver> makeIkSolver(const std::string& name, const RobotModel& robot) {
+  if (name == "auto") return robot.spec().analytic_ik.empty() ? makeDlsSolver(robot) : makeAnalyticSolver(robot, false);
   if (name == "analytic") return makeAnalyticSolver(robot, false);
   if (name == "hybrid") return makeAnalyticSolver(robot, true);
   if (name == "dls") return makeDlsSolver(robot);

@@ -56,8 +56,9 @@ class IkSolver {
   virtual IkResult solve(const IkRequest& request, Rng& rng) = 0;
 };
 
-/// Solver names, fastest-reliable first: "analytic" (He & Liu's geometric Panda IK, sweeping q7
-/// from the seed's), "dls" (ours: Levenberg–Marquardt on our analytic Jacobian, restarts),
+/// Solver names, fastest-reliable first: "auto" (the robot's closed form when its YAML declares
+/// one, else dls), "analytic" (the declared closed form: He & Liu's geometric Panda IK sweeping
+/// q7 from the seed's, or the UR family's 8-branch solution), "dls" (ours: Levenberg–Marquardt on our analytic Jacobian, restarts),
 /// "hybrid" (dls seeded by the analytic solver), "kdl" (orocos-KDL ChainIkSolverPos_NR_JL, one
 /// attempt from the seed, as MoveIt's default plugin), "kdl_restarts", "trac_ik" (the TRAC-IK
 /// method, Speed mode: Newton with restarts and SQP by NLopt in two threads), "trac_ik_distance".

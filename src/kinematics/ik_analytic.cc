@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "core/error.h"
 #include "kinematics/chain.h"
 #include "kinematics/ik_solvers.h"
 #include "kinematics/panda_analytic.h"
@@ -58,20 +59,8 @@ class AnalyticSolver final : public IkSolver {
     }
     if (polish_ && r.solutions.empty()) {
       // Seeds from the analytic near misses, then random restarts, descended numerically.
-      const VecX lo = robot_.lower().array() + req.limit_margin, hi = robot_.upper().array() - req.limit_margin;
-      for (size_t i = 0; r.attempts < req.max_attempts && r.iterations < req.max_iterations; ++i) {
-        if (i < near_misses.size()) q = near_misses[i].cwiseMax(lo).cwiseMin(hi);
-        else
-          for (int j = 0; j < 7; ++j) q[j] = rng.uniform(lo[j], hi[j]);
-        ++r.attempts;
-        if (dlsDescend(chain_, lo, hi, req.target.linear(), req.target.translation(), req, 60, q, r.iterations) &&
-            addSolution(r, robot_, req, q) && static_cast<int>(r.solutions.size()) >= req.max_solutions)
-          return r;
-        if ((i & 7) == 7 && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > req.time_cap) {
-          r.hit_time_cap = true;
-          break;
-        }
-      }
+      descendFromStarts(robot_, chain_, req, near_misses, rng, t0, r);
+      if (static_cast<int>(r.solutions.size()) >= req.max_solutions) return r;
     }
     if (r.solutions.empty()) {
       r.status = IkStatus::kNoSolution;
@@ -144,7 +133,11 @@ class AnalyticSolver final : public IkSolver {
 }  // namespace
 
 std::unique_ptr<IkSolver> makeAnalyticSolver(const RobotModel& robot, bool polish) {
-  return std::make_unique<AnalyticSolver>(robot, polish);
+  const std::string& form = robot.spec().analytic_ik;
+  if (form == "panda") return std::make_unique<AnalyticSolver>(robot, polish);
+  if (form == "ur") return makeUrAnalyticSolver(robot, polish);
+  throw InputError(robot.spec().file, std::string("the ") + (polish ? "hybrid" : "analytic") +
+                                          " IK needs the robot to declare its closed form (analytic_ik: panda or ur); this one declares none");
 }
 
 }  // namespace mm

@@ -87,4 +87,23 @@ class DlsSolver final : public IkSolver {
 
 std::unique_ptr<IkSolver> makeDlsSolver(const RobotModel& robot) { return std::make_unique<DlsSolver>(robot); }
 
+void descendFromStarts(const RobotModel& robot, const FastChain& chain, const IkRequest& req,
+                       const std::vector<VecX>& starts, Rng& rng, std::chrono::steady_clock::time_point t0, IkResult& r) {
+  const VecX lo = robot.lower().array() + req.limit_margin, hi = robot.upper().array() - req.limit_margin;
+  VecX q(robot.dof());
+  for (size_t i = 0; r.attempts < req.max_attempts && r.iterations < req.max_iterations; ++i) {
+    if (i < starts.size()) q = starts[i].cwiseMax(lo).cwiseMin(hi);
+    else
+      for (int j = 0; j < robot.dof(); ++j) q[j] = rng.uniform(lo[j], hi[j]);
+    ++r.attempts;
+    if (dlsDescend(chain, lo, hi, req.target.linear(), req.target.translation(), req, 60, q, r.iterations) &&
+        addSolution(r, robot, req, q) && static_cast<int>(r.solutions.size()) >= req.max_solutions)
+      return;
+    if ((i & 7) == 7 && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > req.time_cap) {
+      r.hit_time_cap = true;
+      return;
+    }
+  }
+}
+
 }  // namespace mm

@@ -92,7 +92,7 @@ class FclChecker final : public GeometricChecker {
       if (std::find(scene.ignore.begin(), scene.ignore.end(), o.name) != scene.ignore.end()) continue;
       world_.push_back(obstacleShape(o));
     }
-    hand_ = robot.linkIndex(robot.spec().links[robot.dof() + 1].name);
+    hand_ = robot.handLink();
     MM_DEMAND(hand_ >= 0);
     if (scene.has_attached) {
       Obstacle box;

@@ -105,7 +105,7 @@ class SphereChecker final : public GeometricChecker {
     world_.build(robot, nl, pad);
     self_.build(robot, nl, 0.0);
     // The held object: a box on the hand, covered the same way.
-    hand_ = robot.linkIndex(robot.spec().links[robot.dof() + 1].name);
+    hand_ = robot.handLink();
     if (scene.has_attached) {
       const double apad = std::isnan(scene.attached_padding) ? pad : scene.attached_padding;
       CollisionShape box;

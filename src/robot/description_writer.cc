@@ -114,8 +114,8 @@ std::string writeMjcf(const RobotSpec& spec) {
   std::ostringstream o;
   const size_t n = spec.joints.size();
   const auto& g = spec.gripper;
-  o << "<!-- " << spec.name << ": generated from " << spec.name
-    << ".yaml by gen_robot. Do not edit; edit the YAML and regenerate. -->\n";
+  o << "<!-- " << spec.name << " with " << g.name << ": generated from their YAML files by gen_robot. Do not edit;"
+    << " edit the YAML and regenerate. -->\n";
   o << "<mujoco model=\"" << spec.name << "\">\n";
   o << "  <default>\n    <default class=\"" << spec.name << "\">\n";
   o << "      <joint damping=\"" << num(spec.damping) << "\" armature=\"" << num(spec.armature) << "\"/>\n";
@@ -150,11 +150,11 @@ std::string writeMjcf(const RobotSpec& spec) {
     << "\" size=\"0.005\" rgba=\"1 0 0 1\"/>\n";
   o << ind << "  <camera name=\"wrist_camera\" pos=\"0.05 0 0.04\" xyaxes=\"0 -1 0 1 0 0\" fovy=\"60\"/>\n";
   const std::pair<const LinkSpec*, int> fingers[] = {{&lf, 1}, {&rf, -1}};
-  int fi = 1;
+  int fi = 0;
   for (const auto& [f, sign] : fingers) {
     o << ind << "  <body name=\"" << f->name << "\" pos=\"0 0 " << num(g.finger_z) << "\">\n";
     o << mjcfInertial(*f, ind + "    ");
-    o << ind << "    <joint name=\"" << spec.name << "_finger_joint" << fi++ << "\" type=\"slide\" axis=\"0 "
+    o << ind << "    <joint name=\"" << g.finger_joints[fi++] << "\" type=\"slide\" axis=\"0 "
       << sign << " 0\" range=\"0 " << num(g.travel) << "\" limited=\"true\" damping=\"2\" armature=\"0.01\"/>\n";
     o << mjcfGeoms(*f, ind + "    ", spec.name + "_pad");
     o << ind << "  </body>\n";
@@ -172,15 +172,14 @@ std::string writeMjcf(const RobotSpec& spec) {
   o << "    <exclude body1=\"" << lf.name << "\" body2=\"" << rf.name << "\"/>\n";
   o << "  </contact>\n\n  <equality>\n";
   // The fingers are coupled, as the hand's mechanism (and the URDF's mimic joint) couples them.
-  o << "    <joint name=\"" << spec.name << "_finger_coupling\" joint1=\"" << spec.name << "_finger_joint1\" joint2=\""
-    << spec.name << "_finger_joint2\" solref=\"0.005 1\"/>\n";
+  o << "    <joint name=\"" << g.name << "_finger_coupling\" joint1=\"" << g.finger_joints[0] << "\" joint2=\""
+    << g.finger_joints[1] << "\" solref=\"0.005 1\"/>\n";
   o << "  </equality>\n\n  <actuator>\n";
   for (const auto& j : spec.joints)
     o << "    <motor name=\"" << j.name << "\" joint=\"" << j.name << "\" ctrllimited=\"true\" ctrlrange=\""
       << num(-j.effort) << " " << num(j.effort) << "\"/>\n";
-  for (int k = 1; k <= 2; ++k)
-    o << "    <motor name=\"" << spec.name << "_finger_joint" << k << "\" joint=\"" << spec.name
-      << "_finger_joint" << k << "\" ctrllimited=\"true\" ctrlrange=\"" << num(-g.max_force) << " "
+  for (int k = 0; k < 2; ++k)
+    o << "    <motor name=\"" << g.finger_joints[k] << "\" joint=\"" << g.finger_joints[k] << "\" ctrllimited=\"true\" ctrlrange=\"" << num(-g.max_force) << " "
       << num(g.max_force) << "\"/>\n";
   o << "  </actuator>\n</mujoco>\n";
   return o.str();
@@ -242,8 +241,8 @@ std::string writeUrdf(const RobotSpec& spec) {
   std::ostringstream o;
   const size_t n = spec.joints.size();
   const auto& g = spec.gripper;
-  o << "<?xml version=\"1.0\"?>\n<!-- " << spec.name << ": generated from " << spec.name
-    << ".yaml by gen_robot. Do not edit; edit the YAML and regenerate. -->\n";
+  o << "<?xml version=\"1.0\"?>\n<!-- " << spec.name << " with " << g.name
+    << ": generated from their YAML files by gen_robot. Do not edit; edit the YAML and regenerate. -->\n";
   o << "<robot name=\"" << spec.name << "\">\n";
   for (size_t i = 0; i < spec.links.size(); ++i) {
     const auto& l = spec.links[i];
@@ -259,19 +258,19 @@ std::string writeUrdf(const RobotSpec& spec) {
       << "\"/>\n    <dynamics damping=\"" << num(spec.damping) << "\"/>\n  </joint>\n";
   }
   const auto& hand = spec.links[n + 1];
-  o << "  <joint name=\"" << spec.name << "_hand_joint\" type=\"fixed\">\n    <parent link=\"" << spec.links[n].name
+  o << "  <joint name=\"" << hand.name << "_joint\" type=\"fixed\">\n    <parent link=\"" << spec.links[n].name
     << "\"/>\n    <child link=\"" << hand.name << "\"/>\n    <origin xyz=\"0 0 " << num(spec.flange_d)
     << "\" rpy=\"0 0 " << num(spec.hand_yaw) << "\"/>\n  </joint>\n";
-  o << "  <joint name=\"" << spec.name << "_tcp_joint\" type=\"fixed\">\n    <parent link=\"" << hand.name
+  o << "  <joint name=\"" << spec.tip_link << "_joint\" type=\"fixed\">\n    <parent link=\"" << hand.name
     << "\"/>\n    <child link=\"" << spec.tip_link << "\"/>\n    <origin xyz=\"0 0 " << num(spec.tcp_offset)
     << "\" rpy=\"0 0 0\"/>\n  </joint>\n";
   for (int k = 1; k <= 2; ++k) {
-    o << "  <joint name=\"" << spec.name << "_finger_joint" << k << "\" type=\"prismatic\">\n    <parent link=\""
+    o << "  <joint name=\"" << g.finger_joints[k - 1] << "\" type=\"prismatic\">\n    <parent link=\""
       << hand.name << "\"/>\n    <child link=\"" << spec.links[n + 1 + k].name << "\"/>\n    <origin xyz=\"0 0 "
       << num(g.finger_z) << "\" rpy=\"0 0 0\"/>\n    <axis xyz=\"0 " << (k == 1 ? 1 : -1)
       << " 0\"/>\n    <limit lower=\"0\" upper=\"" << num(g.travel) << "\" effort=\"" << num(g.max_force)
       << "\" velocity=\"" << num(g.velocity) << "\"/>\n";
-    if (k == 2) o << "    <mimic joint=\"" << spec.name << "_finger_joint1\"/>\n";
+    if (k == 2) o << "    <mimic joint=\"" << g.finger_joints[0] << "\"/>\n";
     o << "  </joint>\n";
   }
   o << "</robot>\n";

@@ -10,6 +10,7 @@
 #include <mutex>
 
 #include "core/error.h"
+#include "robot/description_writer.h"
 
 namespace mm {
 namespace {
@@ -29,34 +30,33 @@ class CaptureHandler : public console_bridge::OutputHandler {
   std::string messages;
 };
 
-urdf::ModelInterfaceSharedPtr parseUrdf(const std::string& path) {
+// Parses a URDF text; `origin` names it in errors.
+urdf::ModelInterfaceSharedPtr parseUrdf(const std::string& text, const std::string& origin) {
   tinyxml2::XMLDocument doc;
-  if (doc.LoadFile(path.c_str()) != tinyxml2::XML_SUCCESS) {
-    if (doc.ErrorID() == tinyxml2::XML_ERROR_FILE_NOT_FOUND || doc.ErrorID() == tinyxml2::XML_ERROR_FILE_COULD_NOT_BE_OPENED)
-      throw InputError(path, "cannot open file (expected a URDF robot description)");
-    throw InputError(path + ":" + std::to_string(doc.ErrorLineNum()),
+  if (doc.Parse(text.c_str()) != tinyxml2::XML_SUCCESS)
+    throw InputError(origin + ":" + std::to_string(doc.ErrorLineNum()),
                      std::string("malformed XML (expected a URDF robot description): ") + doc.ErrorStr());
-  }
   static std::mutex mutex;  // console_bridge's handler is global
   std::lock_guard<std::mutex> lock(mutex);
   CaptureHandler handler;
   console_bridge::useOutputHandler(&handler);
-  auto model = urdf::parseURDFFile(path);
+  auto model = urdf::parseURDF(text);
   console_bridge::restorePreviousOutputHandler();
   if (!model)
-    throw InputError(path, "not a valid URDF robot description: " +
-                               (handler.messages.empty() ? std::string("urdfdom rejected it") : handler.messages));
+    throw InputError(origin, "not a valid URDF robot description: " +
+                                 (handler.messages.empty() ? std::string("urdfdom rejected it") : handler.messages));
   return model;
 }
 
 }  // namespace
 
-RobotModel RobotModel::load(const std::string& spec_yaml) {
+RobotModel RobotModel::load(const std::string& spec_yaml, const std::string& gripper_yaml) {
   RobotModel m;
-  m.spec_ = loadRobotSpec(spec_yaml);
+  m.spec_ = loadRobotSpec(spec_yaml, gripper_yaml);
   const RobotSpec& s = m.spec_;
-  const std::string urdf_path = s.urdfPath();
-  auto model = parseUrdf(urdf_path);
+  // The kinematic tree as a URDF reader sees it: the URDF written from the arm and its gripper.
+  const std::string urdf_path = s.file + " with " + s.gripper.file;
+  auto model = parseUrdf(writeUrdf(s), urdf_path);
 
   // Chain from tip to base.
   auto tip = model->getLink(s.tip_link);
@@ -150,6 +150,8 @@ RobotModel RobotModel::load(const std::string& spec_yaml) {
         }
       };
   visit(model->getLink(s.base_link), 0, Pose::Identity(), Vec3::Zero());
+  m.hand_link_ = m.linkIndex(s.gripper.hand.name);
+  for (int k = 0; k < 2; ++k) m.finger_link_[k] = m.linkIndex(s.gripper.fingers[k].name);
   return m;
 }
 

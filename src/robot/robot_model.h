@@ -1,8 +1,9 @@
 // RobotModel: an immutable serial arm with a parallel gripper, shared by every worker.
 // Kinematic tree and collision geometry come from the URDF (urdfdom); limits, home and gripper
-// numbers come from the robot's YAML (the single source both descriptions are generated from).
+// numbers come from the arm's and the gripper's YAML (the source both descriptions are written from).
 #pragma once
 #include <Eigen/Core>
+#include <array>
 #include <string>
 #include <vector>
 
@@ -34,8 +35,12 @@ struct LinkInfo {
 
 class RobotModel {
  public:
-  /// Loads robots/<name>/<name>.yaml and the URDF beside it. Throws InputError on bad files.
-  static RobotModel load(const std::string& spec_yaml);
+  /// Loads an arm's YAML with a gripper mounted on its flange (`gripper_yaml`, or the arm's
+  /// default) and builds the kinematic tree from their URDF. Throws InputError on bad files.
+  static RobotModel load(const std::string& spec_yaml, const std::string& gripper_yaml = "");
+  /// Index into links() of the gripper's hand, and of its fingers (+y, -y).
+  int handLink() const { return hand_link_; }
+  int fingerLink(int k) const { return finger_link_[k]; }
 
   int dof() const { return static_cast<int>(axis_.size()); }
   const RobotSpec& spec() const { return spec_; }
@@ -85,6 +90,8 @@ class RobotModel {
   VecX lower_, upper_, vmax_, amax_, jmax_, home_;
   std::vector<LinkInfo> links_;
   std::vector<CollisionShape> shapes_;
+  int hand_link_ = -1;
+  std::array<int, 2> finger_link_{-1, -1};
 };
 
 }  // namespace mm

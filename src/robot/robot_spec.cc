@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -85,29 +86,82 @@ ShapeSpec readShape(const Reader& r, const YAML::Node& n) {
   return s;
 }
 
+LinkSpec readLink(const Reader& r, const YAML::Node& l) {
+  LinkSpec ls;
+  ls.name = r.text(l, "name");
+  ls.mass = r.positive(l, "mass");
+  const YAML::Node shapes = r.require(l, "shapes", l);
+  if (!shapes.IsSequence() || shapes.size() == 0)
+    throw InputError(r.at(shapes), "'shapes' expects a list of collision primitives");
+  for (const auto& sh : shapes) ls.shapes.push_back(readShape(r, sh));
+  return ls;
+}
+
+YAML::Node loadYaml(const std::string& path, const char* what) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    throw InputError(path, std::string("cannot open file (expected ") + what + ")");
+  } catch (const YAML::Exception& e) {
+    throw InputError(path + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1),
+                     "malformed YAML: " + e.msg);
+  }
+  if (!root.IsMap()) throw InputError(path, std::string("expected a YAML map: ") + what);
+  return root;
+}
+
 }  // namespace
+
+std::vector<std::string> RobotSpec::names() const {
+  std::vector<std::string> out{name, base_link, tip_link, gripper.name, gripper.finger_joints[0], gripper.finger_joints[1]};
+  for (const auto& j : joints) out.push_back(j.name);
+  for (const auto& l : links) out.push_back(l.name);
+  return out;
+}
+
+GripperSpec loadGripperSpec(const std::string& path) {
+  Reader r{path};
+  const YAML::Node root = loadYaml(path, "a gripper YAML");
+  GripperSpec g;
+  g.file = path;
+  g.name = r.text(root, "name");
+  g.travel = r.positive(root, "travel");
+  g.max_force = r.positive(root, "max_force");
+  g.velocity = r.positive(root, "velocity");
+  g.finger_z = r.number(root, "finger_z");
+  g.pad_friction = r.positive(root, "pad_friction");
+  const YAML::Node tcp = r.require(root, "tcp", root);
+  g.tcp = r.text(tcp, "name");
+  g.tcp_offset = r.positive(tcp, "offset");
+  g.hand = readLink(r, r.require(root, "hand", root));
+  const YAML::Node fingers = r.require(root, "fingers", root);
+  if (!fingers.IsSequence() || fingers.size() != 2)
+    throw InputError(r.at(fingers), "'fingers' expects two fingers: the one opening along +y, then the one along -y");
+  for (size_t k = 0; k < 2; ++k) {
+    g.fingers[k] = readLink(r, fingers[k]);
+    g.finger_joints[k] = r.text(fingers[k], "joint");
+  }
+  if (g.finger_joints[0] == g.finger_joints[1]) throw InputError(r.at(fingers), "the fingers' joints need distinct names");
+  return g;
+}
 
 std::string RobotSpec::directory() const { return std::filesystem::path(file).parent_path().string(); }
 std::string RobotSpec::mjcfPath() const { return (std::filesystem::path(directory()) / (name + ".xml")).string(); }
 std::string RobotSpec::urdfPath() const { return (std::filesystem::path(directory()) / (name + ".urdf")).string(); }
 
-RobotSpec loadRobotSpec(const std::string& path) {
+RobotSpec loadRobotSpec(const std::string& path, const std::string& gripper_yaml) {
   Reader r{path};
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw InputError(path, "cannot open file (expected a robot YAML)");
-  } catch (const YAML::Exception& e) {
-    throw InputError(path + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1),
-                     "malformed YAML: " + e.msg);
-  }
-  if (!root.IsMap()) throw InputError(path, "expected a YAML map describing a robot");
+  const YAML::Node root = loadYaml(path, "a robot YAML describing an arm");
   RobotSpec s;
   s.file = path;
   s.name = r.text(root, "name");
   s.base_link = r.text(root, "base_link");
-  s.tip_link = r.text(root, "tip_link");
+  if (root["analytic_ik"]) {
+    s.analytic_ik = r.text(root, "analytic_ik");
+    if (s.analytic_ik != "panda" && s.analytic_ik != "ur")
+      throw InputError(r.at(root["analytic_ik"]), "'analytic_ik' expects panda or ur, got '" + s.analytic_ik + "'");
+  }
   const YAML::Node joints = r.require(root, "joints", root);
   if (!joints.IsSequence() || joints.size() < 1)
     throw InputError(r.at(joints), "'joints' expects a list of joints");
@@ -128,40 +182,53 @@ RobotSpec loadRobotSpec(const std::string& path) {
   }
   s.flange_d = r.number(root, "flange_d");
   s.hand_yaw = r.number(root, "hand_yaw");
-  s.tcp_offset = r.number(root, "tcp_offset");
   const YAML::Node home = r.require(root, "home", root);
   if (!home.IsSequence() || home.size() != s.joints.size())
     throw InputError(r.at(home), "'home' expects " + std::to_string(s.joints.size()) + " joint values");
   for (size_t i = 0; i < home.size(); ++i) {
-    const double v = home[i].as<double>();
+    double v;
+    try {
+      v = home[i].as<double>();
+    } catch (const YAML::Exception&) {
+      throw InputError(r.at(home[i]), "'home' expects numbers");
+    }
     if (!(v >= s.joints[i].lower && v <= s.joints[i].upper))
       throw InputError(r.at(home[i]), "'home' value " + std::to_string(v) + " is outside the limits of " + s.joints[i].name);
     s.home.push_back(v);
   }
   s.damping = r.number(root, "damping");
   s.armature = r.number(root, "armature");
-  const YAML::Node g = r.require(root, "gripper", root);
-  s.gripper.travel = r.positive(g, "travel");
-  s.gripper.max_force = r.positive(g, "max_force");
-  s.gripper.velocity = r.positive(g, "velocity");
-  s.gripper.finger_z = r.number(g, "finger_z");
-  s.gripper.pad_friction = r.positive(g, "pad_friction");
   const YAML::Node links = r.require(root, "links", root);
-  if (!links.IsSequence() || links.size() != s.joints.size() + 4)
-    throw InputError(r.at(links), "'links' expects " + std::to_string(s.joints.size() + 4) +
-                                      " links: base, one per joint, hand, left finger, right finger");
-  for (const auto& l : links) {
-    LinkSpec ls;
-    ls.name = r.text(l, "name");
-    ls.mass = r.positive(l, "mass");
-    const YAML::Node shapes = r.require(l, "shapes", l);
-    if (!shapes.IsSequence() || shapes.size() == 0)
-      throw InputError(r.at(shapes), "'shapes' expects a list of collision primitives");
-    for (const auto& sh : shapes) ls.shapes.push_back(readShape(r, sh));
-    s.links.push_back(ls);
-  }
+  if (!links.IsSequence() || links.size() != s.joints.size() + 1)
+    throw InputError(r.at(links), "'links' expects " + std::to_string(s.joints.size() + 1) +
+                                      " links: the base, then one per joint");
+  for (const auto& l : links) s.links.push_back(readLink(r, l));
   if (s.links.front().name != s.base_link)
     throw InputError(r.at(links), "the first link must be the base link '" + s.base_link + "'");
+
+  // The gripper: the experiment's choice, else the robot's default (relative to the robot file).
+  std::string gpath = gripper_yaml;
+  if (gpath.empty()) {
+    const std::string rel = r.text(root, "gripper");
+    gpath = std::filesystem::path(rel).is_absolute() ? rel : (std::filesystem::path(s.directory()) / rel).lexically_normal().string();
+  }
+  s.gripper = loadGripperSpec(gpath);
+  s.tip_link = s.gripper.tcp;
+  s.tcp_offset = s.gripper.tcp_offset;
+  s.links.push_back(s.gripper.hand);
+  s.links.push_back(s.gripper.fingers[0]);
+  s.links.push_back(s.gripper.fingers[1]);
+  // Every name once: the descriptions and the simulator find bodies and joints by name.
+  std::vector<std::string> seen;
+  for (const auto& l : s.links) seen.push_back(l.name);
+  for (const auto& j : s.joints) seen.push_back(j.name);
+  seen.push_back(s.tip_link);
+  seen.push_back(s.gripper.finger_joints[0]);
+  seen.push_back(s.gripper.finger_joints[1]);
+  std::sort(seen.begin(), seen.end());
+  for (size_t i = 1; i < seen.size(); ++i)
+    if (seen[i] == seen[i - 1])
+      throw InputError(path, "the name '" + seen[i] + "' is used twice by the arm and its gripper (" + gpath + ")");
   return s;
 }
 

@@ -1,5 +1,7 @@
-// RobotSpec: the robot's numbers as written in robots/<name>/<name>.yaml (the single source of
-// kinematics, limits, masses and collision primitives for a serial arm with a parallel gripper).
+// RobotSpec: an arm's numbers as written in robots/<name>/<name>.yaml (the single source of its
+// kinematics, limits, masses and collision primitives) with a parallel gripper mounted on its
+// flange, read from its own file (robots/grippers/<name>.yaml): the gripper is a part, chosen by
+// the robot's default or by the experiment.
 #pragma once
 #include <array>
 #include <string>
@@ -32,31 +34,53 @@ struct LinkSpec {
   std::vector<ShapeSpec> shapes;  ///< in the link frame
 };
 
+/// A two-finger parallel gripper: a hand body on the flange (z along the approach), two fingers
+/// sliding along the hand's +y and -y, and the TCP between the fingertips.
 struct GripperSpec {
+  std::string file;         ///< where it was read from
+  std::string name;
   double travel = 0.04;     ///< [m] per finger
   double max_force = 70;    ///< [N] per finger
   double velocity = 0.2;    ///< [m/s]
   double finger_z = 0.0584; ///< [m] finger joint origin along hand z
   double pad_friction = 1.5;
+  double tcp_offset = 0.1; ///< [m] TCP along hand z
+  std::string tcp;          ///< the TCP's name (a URDF link, an MJCF site)
+  std::array<std::string, 2> finger_joints;  ///< +y finger's, -y finger's
+  LinkSpec hand;
+  std::array<LinkSpec, 2> fingers;
 };
 
 struct RobotSpec {
   std::string file;  ///< where it was read from
-  std::string name, base_link, tip_link;
+  std::string name, base_link;
+  std::string tip_link;           ///< the gripper's TCP
   std::vector<JointSpec> joints;  ///< arm joints, base to tip
-  double flange_d = 0, hand_yaw = 0, tcp_offset = 0;
+  double flange_d = 0;            ///< [m] flange along the last joint's z
+  double hand_yaw = 0;            ///< [rad] the gripper's mounting angle about the flange z
+  double tcp_offset = 0;          ///< [m] the gripper's TCP past the flange
+  /// The closed-form IK the robot declares ("panda", "ur"; empty: none). The solver checks the
+  /// kinematic structure when it is made, so a wrong declaration is an input error.
+  std::string analytic_ik;
   std::vector<double> home;  ///< [rad], dim joints.size()
   double damping = 0, armature = 0;
   GripperSpec gripper;
-  /// Links in order: base, one per joint, hand, left finger, right finger.
+  /// Links in order: base, one per joint, then the gripper's hand, +y finger, -y finger.
   std::vector<LinkSpec> links;
+  /// The names every link and joint of the arm and gripper take (to check a robot's names stay
+  /// out of the harness's code).
+  std::vector<std::string> names() const;
 
   std::string directory() const;
   std::string mjcfPath() const;  ///< <dir>/<name>.xml
   std::string urdfPath() const;  ///< <dir>/<name>.urdf
 };
 
-/// Reads and validates a robot YAML. Throws InputError naming file:line and what was expected.
-RobotSpec loadRobotSpec(const std::string& path);
+/// Reads and validates a robot YAML and mounts a gripper: `gripper_yaml`, or when empty the one
+/// the robot's file names (relative to that file). Throws InputError naming file:line and what
+/// was expected.
+RobotSpec loadRobotSpec(const std::string& path, const std::string& gripper_yaml = "");
+/// Reads and validates a gripper YAML.
+GripperSpec loadGripperSpec(const std::string& path);
 
 }  // namespace mm

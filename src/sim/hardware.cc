@@ -112,12 +112,23 @@ class MockHardware final : public HardwareBase {
   }
 
  private:
+  // How far the finger's shapes reach across the pad (along the hand's x) [m].
+  double padHalfWidth() const {
+    double h = 0;
+    for (const ShapeSpec& sh : robot_.spec().gripper.fingers[0].shapes) {
+      if (sh.type == ShapeSpec::Type::kBox) h = std::max(h, std::abs(sh.pos[0]) + sh.half[0]);
+      else if (sh.type == ShapeSpec::Type::kSphere) h = std::max(h, std::abs(sh.pos[0]) + sh.radius);
+      else h = std::max(h, std::max(std::abs(sh.from[0]), std::abs(sh.to[0])) + sh.radius);
+    }
+    return h;
+  }
   // The object whose center lies between the finger pads (within the pad depth), or -1.
   int objectBetweenFingers() const {
     const Pose T_tcp = w_.tcpPose();
     for (int k : active_) {
       const Vec3 p = T_tcp.inverse() * w_.object(k).T_world_object.translation();
-      if (std::abs(p.x()) < 0.012 && std::abs(p.z()) < 0.02 && std::abs(p.y()) < robot_.spec().gripper.travel) return k;
+      if (std::abs(p.x()) < padHalfWidth() + 0.0015 && std::abs(p.z()) < 0.02 && std::abs(p.y()) < robot_.spec().gripper.travel)
+        return k;
     }
     return -1;
   }

@@ -15,6 +15,7 @@
 
 #include "core/error.h"
 #include "sim/mjcf_check.h"
+#include "sim/scene_compose.h"
 
 namespace mm {
 namespace {
@@ -139,13 +140,25 @@ std::unique_ptr<SimWorld> SimWorld::load(const std::string& scene_xml, const Rob
   checkMjcf(scene_xml);
   std::unique_ptr<SimWorld> w(new SimWorld());
   Impl& I = *w->impl_;
+  // The scene with the robot mounted, compiled from memory (MuJoCo's virtual file system).
+  const std::string xml = composeScene(scene_xml, robot.spec());
   char err[1024] = "";
-  try {
-    I.m = mj_loadXML(scene_xml.c_str(), nullptr, err, sizeof err);
-  } catch (const std::runtime_error& e) {
-    throw InputError(scene_xml, std::string("MuJoCo rejected the model: ") + e.what());
+  {
+    auto vfs = std::make_unique<mjVFS>();
+    mj_defaultVFS(vfs.get());
+    const char* vname = "minimanip_composed_scene.xml";
+    if (mj_makeEmptyFileVFS(vfs.get(), vname, static_cast<int>(xml.size())) != 0)
+      throw InputError(scene_xml, "cannot compose the scene in MuJoCo's virtual file system");
+    std::memcpy(vfs->filedata[mj_findFileVFS(vfs.get(), vname)], xml.data(), xml.size());
+    try {
+      I.m = mj_loadXML(vname, vfs.get(), err, sizeof err);
+    } catch (const std::runtime_error& e) {
+      mj_deleteVFS(vfs.get());
+      throw InputError(scene_xml, std::string("MuJoCo rejected the scene with ") + robot.spec().name + " mounted: " + e.what());
+    }
+    mj_deleteVFS(vfs.get());
   }
-  if (!I.m) throw InputError(scene_xml, std::string("MuJoCo rejected the model: ") + err);
+  if (!I.m) throw InputError(scene_xml, std::string("MuJoCo rejected the scene with ") + robot.spec().name + " mounted: " + err);
   I.d = mj_makeData(I.m);
   mjModel* m = I.m;
   const RobotSpec& spec = robot.spec();
@@ -163,7 +176,7 @@ std::unique_ptr<SimWorld> SimWorld::load(const std::string& scene_xml, const Rob
     I.effort.push_back(spec.joints[i].effort);
   }
   for (int k = 0; k < 2; ++k) {
-    const std::string name = spec.name + "_finger_joint" + std::to_string(k + 1);
+    const std::string& name = spec.gripper.finger_joints[k];
     const int j = need(mjOBJ_JOINT, name, "a finger joint");
     I.finger_qpos[k] = m->jnt_qposadr[j];
     I.finger_dof[k] = m->jnt_dofadr[j];

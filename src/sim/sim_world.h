@@ -1,4 +1,4 @@
-// SimWorld: one MuJoCo model + data for one worker (the model is the robot included in a scene).
+// SimWorld: one MuJoCo model + data for one worker (the model is the robot mounted in a scene).
 // Steps the physics with a joint servo and finger force control, or updates it kinematically for
 // the mock hardware. Watches contacts (robot vs table and bins) and MuJoCo's instability warnings.
 // MuJoCo stays inside sim_world.cc.
@@ -33,8 +33,8 @@ std::string mujocoVersion();
 
 class SimWorld {
  public:
-  /// Checks and loads a scene MJCF that includes the robot. Throws InputError for bad files or a
-  /// scene that lacks the robot's joints, actuators, TCP site or objects named object_<k>.
+  /// Checks a scene MJCF, mounts the robot (arm and gripper) in it (sim/scene_compose.h) and loads
+  /// the result. Throws InputError for bad files or a scene that lacks objects named object_<k>.
   static std::unique_ptr<SimWorld> load(const std::string& scene_xml, const RobotModel& robot);
   ~SimWorld();
   SimWorld(const SimWorld&) = delete;

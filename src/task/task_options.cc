@@ -10,7 +10,7 @@ void TaskOptions::declare(ConfigArchive& a) {
   a.enter("grasp");
   a.named("mode", weld, {{"friction", false}, {"weld", true}},
           "friction: held by finger force; weld: attached on grasp (the source's attach plugin)");
-  a.value("force", grasp_force, {1.0, 70.0}, "N", "finger force limit while grasping (the hand's limit is 70 N)");
+  a.value("force", grasp_force, {1.0, 1000.0}, "N", "finger force limit while grasping, at most the gripper's max_force");
   a.value("max_candidates", max_grasp_candidates, {1, 64}, "", "grasp candidates tried per object before the pick fails");
   a.value("finger_margin", finger_margin, {0.002, 0.04}, "m",
           "fingers open this much wider than the object's half width before the approach");

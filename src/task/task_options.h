@@ -21,7 +21,7 @@ struct TaskOptions {
   std::string optimizer = "none";        ///< "none" or "chomp" after the planner
   LimitScaling scaling{0.5, 0.5};        ///< fraction of velocity / acceleration limits
   CartesianOptions cartesian;
-  std::string ik_solver = "analytic";   ///< see ikSolverNames()
+  std::string ik_solver = "auto";       ///< see ikSolverNames()
   IkRequest ik;                          ///< tolerances and budgets of the grasp/place IK
   GraspOptions grasp;
   int max_grasp_candidates = 8;

@@ -42,21 +42,41 @@ TEST(Campaign, ShortMockCampaignSucceeds) {
   EXPECT_THAT(r.out, HasSubstr("Overall Yield:     100.0%"));
 }
 
-TEST(Campaign, ShortMujocoCampaignSucceedsAndMeasures) {
-  TempDir d;
-  const RunResult r = runMinimanip("run experiments/quickstart.yaml --trials 4 --set progress=none --out " + (d.path() / "out").string());
-  ASSERT_EQ(r.code, 0) << r.out;
-  const auto trials = readTrials(d.path() / "out");
-  ASSERT_EQ(trials.size(), 4u);
+// Every trial placed its cube cleanly: no collision, stable physics, small place and tracking
+// errors, the fingers stopped on the 5 cm cube, a plausible simulated time.
+void expectCleanPicks(const std::vector<json>& trials) {
   for (const auto& t : trials) {
     EXPECT_TRUE(t["success"].get<bool>()) << t.dump();
     EXPECT_EQ(t["collision_count"], 0);
     EXPECT_FALSE(t["sim_unstable"].get<bool>());
     EXPECT_LT(t["place_position_error"].get<double>(), 0.01);
     EXPECT_LT(t["max_tracking_error"].get<double>(), 0.01);
-    EXPECT_GT(t["grasp_opening"].get<double>(), 0.02);  // the fingers stopped on the 5 cm cube
+    EXPECT_GT(t["grasp_opening"].get<double>(), 0.02);
     EXPECT_GT(t["sim_time"].get<double>(), 3.0);
   }
+}
+
+TEST(Campaign, ShortMujocoCampaignSucceedsAndMeasures) {
+  TempDir d;
+  const RunResult r = runMinimanip("run experiments/quickstart.yaml --trials 4 --set progress=none --out " + (d.path() / "out").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto trials = readTrials(d.path() / "out");
+  ASSERT_EQ(trials.size(), 4u);
+  expectCleanPicks(trials);
+}
+
+// The UR5e with a 2F-85-class gripper, by configuration only (experiments/ur5e_quickstart.yaml
+// differs from the quickstart in its robot and gripper keys), on the quickstart's first trials.
+TEST(Campaign, Ur5eWithA2f85ClassGripperPicksAndPlaces) {
+  TempDir d;
+  const RunResult r = runMinimanip("run experiments/ur5e_quickstart.yaml --trials 4 --set progress=none --out " + (d.path() / "out").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto trials = readTrials(d.path() / "out");
+  ASSERT_EQ(trials.size(), 4u);
+  expectCleanPicks(trials);
+  std::stringstream cfg;
+  cfg << std::ifstream(d.path() / "out" / "config.resolved.yaml").rdbuf();
+  EXPECT_THAT(cfg.str(), HasSubstr("robots/grippers/robotiq_2f85.yaml"));
 }
 
 // The clearing tree picks until the bin is empty, or until target_count objects are placed.
@@ -177,7 +197,10 @@ TEST_F(BadInput, WrongTypeAndBadChoice) {
 }
 
 TEST_F(BadInput, SetOverridesAreValidatedToo) {
-  expectRejected("run experiments/quickstart.yaml --set grasp.force=500", "--set grasp\\.force: 'grasp\\.force' must be in \\[1, 70\\]");
+  expectRejected("run experiments/quickstart.yaml --set grasp.force=5000", "--set grasp\\.force: 'grasp\\.force' must be in \\[1, 1000\\]");
+  // Within the option's range but past the mounted gripper's limit.
+  expectRejected("run experiments/quickstart.yaml --set grasp.force=500",
+                 "grasp\\.force 500 N is past the gripper's limit \\(70 N, .*robots/grippers/panda_hand\\.yaml\\)");
   expectRejected("run experiments/quickstart.yaml --set nokey=1", "--set nokey: unknown key 'nokey'");
 }
 
@@ -196,12 +219,9 @@ TEST_F(BadInput, MalformedMjcfXml) {
   s << in.rdbuf();
   std::string xml = s.str();
   xml.replace(xml.find("<geom name=\"table\""), 5, "<geom name=\"table\"<");
-  // The scene includes ../robots/panda/panda.xml relative to itself: lay the copy out the same way.
-  fs::create_directories(dir_.path() / "robots");
-  fs::copy(source("robots/panda"), dir_.path() / "robots" / "panda");
   fs::create_directories(dir_.path() / "sub");
   dir_.file("sub/scene.xml", xml);
-  const std::string f2 = dir_.file("exp2.yaml", "robot: robots/panda/panda.yaml\nscene: sub/scene.xml\n");
+  const std::string f2 = dir_.file("exp2.yaml", "robot: " + source("robots/panda/panda.yaml") + "\nscene: sub/scene.xml\n");
   expectRejected("run " + f2, "sub/scene\\.xml:[0-9]+: malformed XML");
 }
 
@@ -211,12 +231,10 @@ TEST_F(BadInput, NanSizeAndZeroQuaternionInMjcf) {
   s << in.rdbuf();
   const std::string xml = s.str();
   fs::create_directories(dir_.path() / "sub");
-  fs::create_directories(dir_.path() / "robots");
-  fs::copy(source("robots/panda"), dir_.path() / "robots" / "panda");
   std::string nan = xml;
   nan.replace(nan.find("size=\"0.6 0.75 0.375\""), 21, "size=\"0.6 nan 0.375\"");
   dir_.file("sub/scene.xml", nan);
-  const std::string f = dir_.file("exp.yaml", "robot: robots/panda/panda.yaml\nscene: sub/scene.xml\n");
+  const std::string f = dir_.file("exp.yaml", "robot: " + source("robots/panda/panda.yaml") + "\nscene: sub/scene.xml\n");
   expectRejected("run " + f, "sub/scene\\.xml:[0-9]+: <geom> size=\"0\\.6 nan 0\\.375\": expected finite numbers");
   std::string zq = xml;
   zq.replace(zq.find("<geom name=\"table\""), 18, "<geom name=\"table\" quat=\"0 0 0 0\"");
@@ -224,17 +242,30 @@ TEST_F(BadInput, NanSizeAndZeroQuaternionInMjcf) {
   expectRejected("run " + f, "sub/scene\\.xml:[0-9]+: <geom> quat is zero");
 }
 
-TEST_F(BadInput, MalformedUrdf) {
-  fs::create_directories(dir_.path() / "robots");
-  fs::copy(source("robots/panda"), dir_.path() / "robots" / "panda");
-  const fs::path urdf = dir_.path() / "robots" / "panda" / "panda.urdf";
+TEST_F(BadInput, GripperWithOneFinger) {
+  const std::string g = dir_.file("one_finger.yaml", R"(name: g
+travel: 0.04
+max_force: 50
+velocity: 0.1
+finger_z: 0.05
+pad_friction: 1
+tcp: {name: g_tcp, offset: 0.1}
+hand: {name: g_hand, mass: 0.5, shapes: [{type: sphere, pos: [0, 0, 0.03], radius: 0.03}]}
+fingers:
+  - {name: g_left, joint: g_left_joint, mass: 0.02, shapes: [{type: box, pos: [0, 0.01, 0.02], half: [0.01, 0.01, 0.02]}]}
+)");
+  expectRejected("run " + experiment("gripper: one_finger.yaml\n"), "one_finger\\.yaml:[0-9]+:[0-9]+: 'fingers' expects two fingers");
+}
+
+TEST_F(BadInput, SceneHoldingTheRobot) {
+  // A scene of the old kind, with the robot in it: the harness mounts the robot itself.
   std::stringstream s;
-  s << std::ifstream(urdf).rdbuf();
-  std::string text = s.str();
-  text.replace(text.find("</robot>"), 8, "</robt>");
-  std::ofstream(urdf) << text;
-  const std::string f = dir_.file("exp.yaml", "robot: robots/panda/panda.yaml\nscene: " + source("scenes/bin_table.xml") + "\n");
-  expectRejected("run " + f, "panda\\.urdf:[0-9]+: malformed XML");
+  s << std::ifstream("scenes/bin_table.xml").rdbuf();
+  std::string xml = s.str();
+  xml.replace(xml.find("<default>"), 9, "<include file=\"" + source("robots/panda/panda.xml") + "\"/>\n  <default>");
+  dir_.file("scene.xml", xml);
+  const std::string f = dir_.file("exp.yaml", "robot: " + source("robots/panda/panda.yaml") + "\nscene: scene.xml\n");
+  expectRejected("run " + f, "panda\\.xml:[0-9]+: body 'panda_link0' belongs to the robot");
 }
 
 TEST_F(BadInput, UnknownOptionAndCommand) {

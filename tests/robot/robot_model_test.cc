@@ -6,6 +6,7 @@
 #include <mujoco/mujoco.h>
 
 #include <filesystem>
+#include <set>
 #include <fstream>
 #include <sstream>
 
@@ -31,16 +32,20 @@ VecX randomConfig(const RobotModel& m, Rng& rng) {
   return q;
 }
 
-TEST(RobotDescription, CommittedFilesMatchTheGenerator) {
-  const RobotSpec spec = loadRobotSpec(kSpec);
-  EXPECT_EQ(slurp(spec.mjcfPath()), writeMjcf(spec)) << "run: build/gen_robot " << kSpec;
-  EXPECT_EQ(slurp(spec.urdfPath()), writeUrdf(spec)) << "run: build/gen_robot " << kSpec;
+class EveryRobot : public ::testing::TestWithParam<std::string> {};
+INSTANTIATE_TEST_SUITE_P(RobotDescription, EveryRobot, ::testing::Values("robots/panda/panda.yaml", "robots/ur5e/ur5e.yaml"),
+                         [](const auto& info) { return std::filesystem::path(info.param).stem().string(); });
+
+TEST_P(EveryRobot, CommittedFilesMatchTheGenerator) {
+  const RobotSpec spec = loadRobotSpec(GetParam());
+  EXPECT_EQ(slurp(spec.mjcfPath()), writeMjcf(spec)) << "run: build/gen_robot " << GetParam();
+  EXPECT_EQ(slurp(spec.urdfPath()), writeUrdf(spec)) << "run: build/gen_robot " << GetParam();
 }
 
 // 100 random configurations (seed 11): every link frame and the TCP of the URDF model agree with
 // MuJoCo's forward kinematics of the MJCF within 1e-9.
-TEST(RobotDescription, MjcfAndUrdfForwardKinematicsAgree) {
-  const RobotModel robot = RobotModel::load(kSpec);
+TEST_P(EveryRobot, MjcfAndUrdfForwardKinematicsAgree) {
+  const RobotModel robot = RobotModel::load(GetParam());
   char err[1000] = "";
   mjModel* m = mj_loadXML(robot.spec().mjcfPath().c_str(), nullptr, err, sizeof err);
   ASSERT_NE(m, nullptr) << err;
@@ -54,8 +59,8 @@ TEST(RobotDescription, MjcfAndUrdfForwardKinematicsAgree) {
     const VecX q = randomConfig(robot, rng);
     const double opening = rng.uniform(0, robot.spec().gripper.travel);
     for (int i = 0; i < robot.dof(); ++i) d->qpos[m->jnt_qposadr[mj_name2id(m, mjOBJ_JOINT, robot.jointNames()[i].c_str())]] = q[i];
-    d->qpos[m->jnt_qposadr[mj_name2id(m, mjOBJ_JOINT, "panda_finger_joint1")]] = opening;
-    d->qpos[m->jnt_qposadr[mj_name2id(m, mjOBJ_JOINT, "panda_finger_joint2")]] = opening;
+    for (const std::string& finger : robot.spec().gripper.finger_joints)
+      d->qpos[m->jnt_qposadr[mj_name2id(m, mjOBJ_JOINT, finger.c_str())]] = opening;
     mj_kinematics(m, d);
     const Pose T = robot.fk(q);
     for (int k = 0; k < 3; ++k) {
@@ -95,8 +100,8 @@ TEST(RobotModel, LimitsComeFromTheSpec) {
   EXPECT_NEAR(T.linear()(2, 2), -1.0, 1e-6);
 }
 
-TEST(RobotModel, JacobianMatchesFiniteDifferences) {  // seed 5, 20 configurations
-  const RobotModel robot = RobotModel::load(kSpec);
+TEST_P(EveryRobot, JacobianMatchesFiniteDifferences) {  // seed 5, 20 configurations
+  const RobotModel robot = RobotModel::load(GetParam());
   Rng rng(5);
   Jacobian J;
   for (int t = 0; t < 20; ++t) {
@@ -121,9 +126,10 @@ class BadRobotFiles : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = std::filesystem::temp_directory_path() / ("mm_badrobot_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir_);
+    std::filesystem::create_directories(dir_ / "grippers");
     std::filesystem::copy_file("robots/panda/panda.yaml", dir_ / "panda.yaml");
-    std::filesystem::copy_file("robots/panda/panda.urdf", dir_ / "panda.urdf");
+    std::filesystem::copy_file("robots/grippers/panda_hand.yaml", dir_ / "grippers" / "panda_hand.yaml");
+    replaceIn("panda.yaml", "gripper: ../grippers/panda_hand.yaml", "gripper: grippers/panda_hand.yaml");
   }
   void TearDown() override { std::filesystem::remove_all(dir_); }
   void replaceIn(const std::string& file, const std::string& from, const std::string& to) {
@@ -144,14 +150,19 @@ class BadRobotFiles : public ::testing::Test {
   std::filesystem::path dir_;
 };
 
-TEST_F(BadRobotFiles, MalformedUrdfNamesFileAndLine) {
-  replaceIn("panda.urdf", "<link name=\"panda_link3\">", "<link name=\"panda_link3\"");
-  EXPECT_THAT(loadError(), ::testing::MatchesRegex(".*panda\\.urdf:[0-9]+: malformed XML.*"));
+TEST_F(BadRobotFiles, MissingGripperFileIsNamed) {
+  replaceIn("panda.yaml", "gripper: grippers/panda_hand.yaml", "gripper: grippers/none.yaml");
+  EXPECT_THAT(loadError(), ::testing::HasSubstr("grippers/none.yaml: cannot open file (expected a gripper YAML)"));
 }
 
-TEST_F(BadRobotFiles, UrdfMissingJointIsRejected) {
-  replaceIn("panda.urdf", "<child link=\"panda_link4\"/>", "<child link=\"panda_nolink\"/>");
-  EXPECT_THAT(loadError(), ::testing::HasSubstr("panda.urdf: not a valid URDF"));
+TEST_F(BadRobotFiles, GripperValueOutOfRangeNamesLine) {
+  replaceIn("grippers/panda_hand.yaml", "max_force: 70.0", "max_force: 0");
+  EXPECT_THAT(loadError(), ::testing::MatchesRegex(".*panda_hand\\.yaml:[0-9]+:[0-9]+: 'max_force' must be > 0.*"));
+}
+
+TEST_F(BadRobotFiles, ANameUsedTwiceIsRejected) {
+  replaceIn("grippers/panda_hand.yaml", "name: panda_leftfinger", "name: panda_link7");
+  EXPECT_THAT(loadError(), ::testing::HasSubstr("the name 'panda_link7' is used twice"));
 }
 
 TEST_F(BadRobotFiles, SpecValueOutOfRangeNamesLine) {
@@ -162,6 +173,47 @@ TEST_F(BadRobotFiles, SpecValueOutOfRangeNamesLine) {
 TEST_F(BadRobotFiles, HomeOutsideLimits) {
   replaceIn("panda.yaml", "home: [0.0, -0.785398, 0.0, -2.356194", "home: [0.0, -0.785398, 0.0, 0.5");
   EXPECT_THAT(loadError(), ::testing::HasSubstr("outside the limits of panda_joint4"));
+}
+
+}  // namespace
+}  // namespace mm
+
+namespace mm {
+namespace {
+
+// Outside robots/ (and a robot's own analytic IK) no code names a robot's links or joints: every
+// link, joint and TCP name of every robot and gripper under robots/ is looked for, as a whole
+// identifier, in every file under src/.
+TEST(RobotNames, NoRobotLinkOrJointNameAppearsInTheSource) {
+  namespace fs = std::filesystem;
+  std::set<std::string> names;
+  std::vector<std::string> robot_files, gripper_files;
+  for (const auto& e : fs::recursive_directory_iterator("robots")) {
+    if (e.path().extension() != ".yaml") continue;
+    (e.path().parent_path().filename() == "grippers" ? gripper_files : robot_files).push_back(e.path().string());
+  }
+  ASSERT_GE(robot_files.size(), 2u);
+  ASSERT_GE(gripper_files.size(), 2u);
+  for (const auto& r : robot_files)
+    for (const auto& g : gripper_files) {
+      const RobotSpec spec = loadRobotSpec(r, g);
+      for (const auto& n : spec.names())
+        if (n != spec.name && n != spec.gripper.name) names.insert(n);
+    }
+  ASSERT_GT(names.size(), 20u);
+  auto ident = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; };
+  std::vector<std::string> hits;
+  for (const auto& e : fs::recursive_directory_iterator("src")) {
+    if (!e.is_regular_file()) continue;
+    const std::string stem = e.path().stem().string();
+    if (stem == "panda_analytic" || stem == "ur_analytic") continue;  // a robot's own analytic IK
+    const std::string text = slurp(e.path().string());
+    for (const auto& n : names)
+      for (size_t p = text.find(n); p != std::string::npos; p = text.find(n, p + 1))
+        if ((p == 0 || !ident(text[p - 1])) && (p + n.size() >= text.size() || !ident(text[p + n.size()])))
+          hits.push_back(e.path().string() + ": " + n);
+  }
+  EXPECT_THAT(hits, ::testing::IsEmpty());
 }
 
 }  // namespace

@@ -1,0 +1,158 @@
+#include "sim/scene_compose.h"
+
+#include <tinyxml2.h>
+
+#include <cstring>
+#include <filesystem>
+#include <functional>
+#include <set>
+
+#include "core/error.h"
+#include "robot/description_writer.h"
+
+namespace mm {
+namespace {
+
+using tinyxml2::XMLDocument;
+using tinyxml2::XMLElement;
+using tinyxml2::XMLNode;
+
+std::string at(const std::string& file, const XMLElement* e) { return file + ":" + std::to_string(e->GetLineNum()); }
+
+void parseFile(XMLDocument& doc, const std::string& path) {
+  if (doc.LoadFile(path.c_str()) != tinyxml2::XML_SUCCESS) {
+    if (doc.ErrorID() == tinyxml2::XML_ERROR_FILE_NOT_FOUND || doc.ErrorID() == tinyxml2::XML_ERROR_FILE_COULD_NOT_BE_OPENED)
+      throw InputError(path, "cannot open file (expected an MJCF scene)");
+    throw InputError(path + ":" + std::to_string(doc.ErrorLineNum()), std::string("malformed XML: ") + doc.ErrorStr());
+  }
+  if (!doc.RootElement() || std::strcmp(doc.RootElement()->Name(), "mujoco") != 0)
+    throw InputError(path, "expected an MJCF file (root element <mujoco>)");
+}
+
+void collectNames(const XMLElement* e, const char* element, std::vector<const XMLElement*>& out);
+
+// The scene holds the world only: none of the robot's bodies (checked per file, for its lines).
+void checkNoRobot(const XMLElement* root, const std::string& file, const std::set<std::string>& robot_names) {
+  std::vector<const XMLElement*> bodies;
+  collectNames(root, "body", bodies);
+  for (const XMLElement* b : bodies)
+    if (robot_names.count(b->Attribute("name")))
+      throw InputError(at(file, b), std::string("body '") + b->Attribute("name") +
+                                        "' belongs to the robot: a scene holds the world only (the harness mounts the robot)");
+}
+
+// Replaces each <include file=".."/> under `parent` by the included file's top-level children
+// (MuJoCo's semantics), recursively; paths relative to the including file.
+void expandIncludes(XMLDocument& doc, XMLElement* parent, const std::string& file, int depth,
+                    const std::set<std::string>& robot_names) {
+  if (depth > 20) throw InputError(file, "<include> nested more than 20 deep (a cycle?)");
+  for (XMLElement* e = parent->FirstChildElement(); e;) {
+    XMLElement* next = e->NextSiblingElement();
+    if (std::strcmp(e->Name(), "include") == 0) {
+      const char* f = e->Attribute("file");
+      if (!f) throw InputError(at(file, e), "<include> needs a 'file' attribute");
+      const std::string path = (std::filesystem::path(file).parent_path() / f).lexically_normal().string();
+      XMLDocument inc;
+      parseFile(inc, path);
+      checkNoRobot(inc.RootElement(), path, robot_names);
+      expandIncludes(inc, inc.RootElement(), path, depth + 1, robot_names);
+      XMLNode* after = e;
+      for (XMLElement* c = inc.RootElement()->FirstChildElement(); c; c = c->NextSiblingElement()) {
+        XMLNode* copy = c->DeepClone(&doc);
+        parent->InsertAfterChild(after, copy);
+        after = copy;
+      }
+      parent->DeleteChild(e);
+    } else {
+      expandIncludes(doc, e, file, depth, robot_names);
+    }
+    e = next;
+  }
+}
+
+void collectNames(const XMLElement* e, const char* element, std::vector<const XMLElement*>& out) {
+  for (const XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
+    if (std::strcmp(c->Name(), element) == 0 && c->Attribute("name")) out.push_back(c);
+    collectNames(c, element, out);
+  }
+}
+
+}  // namespace
+
+std::string composeScene(const std::string& scene_xml, const RobotSpec& robot) {
+  XMLDocument scene;
+  parseFile(scene, scene_xml);
+  XMLElement* root = scene.RootElement();
+  std::set<std::string> robot_names;
+  for (const auto& l : robot.links) robot_names.insert(l.name);
+  checkNoRobot(root, scene_xml, robot_names);
+  expandIncludes(scene, root, scene_xml, 0, robot_names);
+
+  XMLDocument arm;
+  const std::string arm_xml = writeMjcf(robot);
+  if (arm.Parse(arm_xml.c_str()) != tinyxml2::XML_SUCCESS)
+    throw InputError(robot.file, std::string("internal: the robot's MJCF does not parse: ") + arm.ErrorStr());
+
+  std::vector<const XMLElement*> bodies;
+  collectNames(root, "body", bodies);
+
+  // The mount: a site directly in <worldbody>; its pose is the base's.
+  XMLElement* world = root->FirstChildElement("worldbody");
+  if (!world) throw InputError(scene_xml, "expected a <worldbody>");
+  std::vector<const XMLElement*> sites;
+  collectNames(root, "site", sites);
+  for (const XMLElement* s : sites) {
+    if (std::strcmp(s->Attribute("name"), "robot_mount") != 0) continue;
+    if (s->Parent() != world) throw InputError(at(scene_xml, s), "site 'robot_mount' must be a direct child of <worldbody>");
+    for (const char* a : {"pos", "quat", "euler", "axisangle", "xyaxes", "zaxis"}) {
+      const char* v = s->Attribute(a);
+      if (!v) continue;
+      // The planner, perception and the task share one frame, the world's; a base elsewhere would
+      // need the mount transform threaded through all of them, which is not done yet.
+      double x[4] = {0, 0, 0, 0};
+      const int n = std::sscanf(v, "%lf %lf %lf %lf", &x[0], &x[1], &x[2], &x[3]);
+      const bool identity = (std::strcmp(a, "pos") == 0 && n == 3 && x[0] == 0 && x[1] == 0 && x[2] == 0) ||
+                            (std::strcmp(a, "quat") == 0 && n == 4 && x[0] == 1 && x[1] == 0 && x[2] == 0 && x[3] == 0) ||
+                            (std::strcmp(a, "euler") == 0 && n == 3 && x[0] == 0 && x[1] == 0 && x[2] == 0);
+      if (!identity)
+        throw InputError(at(scene_xml, s), std::string("site 'robot_mount' ") + a + "=\"" + v +
+                                               "\": the robot's base must be at the world origin (the harness plans in the world frame)");
+    }
+  }
+
+  // The robot's sections go where a scene's <include> of the robot used to be: before the scene's
+  // own defaults, assets and bodies (so the model's element order, and its physics, are as before).
+  XMLNode* before = nullptr;
+  for (XMLElement* c = root->FirstChildElement(); c; c = c->NextSiblingElement()) {
+    const std::string n = c->Name();
+    if (n != "compiler" && n != "option" && n != "size" && n != "visual" && n != "statistic" && n != "extension") break;
+    before = c;
+  }
+  XMLNode* after = before;
+  for (XMLElement* c = arm.RootElement()->FirstChildElement(); c; c = c->NextSiblingElement()) {
+    XMLNode* copy = c->DeepClone(&scene);
+    after = after ? root->InsertAfterChild(after, copy) : root->InsertFirstChild(copy);
+  }
+
+  // Weld-on-grasp (the source's attach plugin): one weld per pool object, off until a grasp.
+  XMLElement* eq = scene.NewElement("equality");
+  for (int k = 0;; ++k) {
+    const std::string name = "object_" + std::to_string(k);
+    bool found = false;
+    for (const XMLElement* b : bodies) found = found || name == b->Attribute("name");
+    if (!found) break;
+    XMLElement* w = scene.NewElement("weld");
+    w->SetAttribute("name", ("attach_" + std::to_string(k)).c_str());
+    w->SetAttribute("body1", robot.gripper.hand.name.c_str());
+    w->SetAttribute("body2", name.c_str());
+    w->SetAttribute("active", "false");
+    eq->InsertEndChild(w);
+  }
+  root->InsertEndChild(eq);
+
+  tinyxml2::XMLPrinter printer;
+  scene.Print(&printer);
+  return printer.CStr();
+}
+
+}  // namespace mm
