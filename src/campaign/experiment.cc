@@ -22,7 +22,7 @@ void Experiment::declare(ConfigArchive& a) {
           "`minimanip merge` joins the shards' folders (--shard 1/4); 0/1: every trial");
   a.value("seed", seed, {0, 9.007e15}, "", "campaign seed; every random choice derives from (seed, trial, purpose)");
   a.choice("hardware", hardware, hardwareNames(), "mujoco: physics; mock: joints follow commands exactly");
-  a.path("robot", robot_path, "robot (arm) YAML (a path in a file is relative to the file; --set, to the working directory; the default, to the project root)");
+  a.path("robot", robot_path, "the arm: its YAML, or a URDF (.urdf, with its companion <file>.yaml when there is one). A path in a file is relative to the file; --set, to the working directory; the default, to the project root");
   a.path("gripper", gripper_path, "gripper YAML mounted on the arm's flange; default: the arm's own (its YAML's gripper:); paths as for robot");
   a.path("scene", scene_path, "scene MJCF, the world only: the harness mounts the robot at its robot_mount site; paths as for robot");
   a.path("tree", tree_path, "behavior tree (BT.CPP v4 XML) run for each trial; paths as for robot. The default is the source's MiniManip tree");

@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <algorithm>
 #include <cstdio>
 #include <sstream>
 
@@ -28,6 +29,13 @@ struct MassProps {
 };
 
 MassProps massProps(const LinkSpec& link) {
+  if (link.has_inertia) {  // the description's own
+    MassProps mp;
+    mp.com = toV(link.com);
+    const auto& I = link.inertia;
+    mp.inertia << I[0], I[3], I[4], I[3], I[1], I[5], I[4], I[5], I[2];
+    return mp;
+  }
   struct Part { double vol; Vector3d c; Matrix3d I_unit; };  // I per unit mass, about c
   std::vector<Part> parts;
   for (const auto& s : link.shapes) {
@@ -39,6 +47,8 @@ MassProps massProps(const LinkSpec& link) {
       p.I_unit = Matrix3d::Zero();
       p.I_unit.diagonal() << (h.y() * h.y() + h.z() * h.z()) / 3, (h.x() * h.x() + h.z() * h.z()) / 3,
           (h.x() * h.x() + h.y() * h.y()) / 3;
+      const Matrix3d R = Eigen::Quaterniond(s.quat[0], s.quat[1], s.quat[2], s.quat[3]).normalized().toRotationMatrix();
+      p.I_unit = R * p.I_unit * R.transpose();
     } else if (s.type == ShapeSpec::Type::kSphere) {
       p.vol = 4.0 / 3.0 * M_PI * std::pow(s.radius, 3);
       p.c = toV(s.pos);
@@ -74,6 +84,15 @@ MassProps massProps(const LinkSpec& link) {
 // Pose of joint i's frame in the previous frame (modified DH): translation and rotation Rx(alpha).
 Vector3d dhPos(const JointSpec& j) { return {j.a, -std::sin(j.alpha) * j.d, std::cos(j.alpha) * j.d}; }
 
+bool identityQuat(const std::array<double, 4>& q) { return q[0] == 1 && q[1] == 0 && q[2] == 0 && q[3] == 0; }
+
+// URDF roll-pitch-yaw as a quaternion "w x y z" (R = Rz(yaw) Ry(pitch) Rx(roll)).
+std::string quatRpy(const std::array<double, 3>& rpy) {
+  const Eigen::Quaterniond q = Eigen::AngleAxisd(rpy[2], Vector3d::UnitZ()) * Eigen::AngleAxisd(rpy[1], Vector3d::UnitY()) *
+                               Eigen::AngleAxisd(rpy[0], Vector3d::UnitX());
+  return num(q.w()) + " " + num(q.x()) + " " + num(q.y()) + " " + num(q.z());
+}
+
 std::string mjcfGeoms(const LinkSpec& link, const std::string& indent, const std::string& cls) {
   std::ostringstream o;
   int k = 0;
@@ -87,6 +106,8 @@ std::string mjcfGeoms(const LinkSpec& link, const std::string& indent, const std
         break;
       case ShapeSpec::Type::kBox:
         o << "type=\"box\" pos=\"" << vec(toV(s.pos)) << "\" size=\"" << vec(toV(s.half)) << "\"";
+        if (!identityQuat(s.quat))
+          o << " quat=\"" << num(s.quat[0]) << " " << num(s.quat[1]) << " " << num(s.quat[2]) << " " << num(s.quat[3]) << "\"";
         break;
       case ShapeSpec::Type::kSphere:
         o << "type=\"sphere\" pos=\"" << vec(toV(s.pos)) << "\" size=\"" << num(s.radius) << "\"";
@@ -107,6 +128,7 @@ std::string mjcfInertial(const LinkSpec& link, const std::string& indent) {
 
 std::string quatX(double a) { return num(std::cos(a / 2)) + " " + num(std::sin(a / 2)) + " 0 0"; }
 std::string quatZ(double a) { return num(std::cos(a / 2)) + " 0 0 " + num(std::sin(a / 2)); }
+std::string rpyText(const std::array<double, 3>& rpy) { return num(rpy[0]) + " " + num(rpy[1]) + " " + num(rpy[2]); }
 
 }  // namespace
 
@@ -132,10 +154,10 @@ std::string writeMjcf(const RobotSpec& spec) {
     const auto& j = spec.joints[i];
     const auto& link = spec.links[i + 1];
     ind += "  ";
-    o << ind << "<body name=\"" << link.name << "\" pos=\"" << vec(dhPos(j)) << "\" quat=\"" << quatX(j.alpha)
-      << "\">\n";
+    o << ind << "<body name=\"" << link.name << "\" pos=\"" << (j.dh ? vec(dhPos(j)) : vec(toV(j.xyz))) << "\" quat=\""
+      << (j.dh ? quatX(j.alpha) : quatRpy(j.rpy)) << "\">\n";
     o << mjcfInertial(link, ind + "  ");
-    o << ind << "  <joint name=\"" << j.name << "\" axis=\"0 0 1\" range=\"" << num(j.lower) << " "
+    o << ind << "  <joint name=\"" << j.name << "\" axis=\"" << (j.dh ? std::string("0 0 1") : vec(toV(j.axis))) << "\" range=\"" << num(j.lower) << " "
       << num(j.upper) << "\" limited=\"true\"/>\n";
     o << mjcfGeoms(link, ind + "  ", spec.name + "_col");
   }
@@ -143,8 +165,9 @@ std::string writeMjcf(const RobotSpec& spec) {
   const auto& lf = spec.links[n + 2];
   const auto& rf = spec.links[n + 3];
   ind += "  ";
-  o << ind << "<body name=\"" << hand.name << "\" pos=\"0 0 " << num(spec.flange_d) << "\" quat=\""
-    << quatZ(spec.hand_yaw) << "\">\n";
+  const bool yaw_only = spec.flange_rpy[0] == 0 && spec.flange_rpy[1] == 0;
+  o << ind << "<body name=\"" << hand.name << "\" pos=\"" << vec(toV(spec.flange_xyz)) << "\" quat=\""
+    << (yaw_only ? quatZ(spec.flange_rpy[2]) : quatRpy(spec.flange_rpy)) << "\">\n";
   o << mjcfInertial(hand, ind + "  ") << mjcfGeoms(hand, ind + "  ", spec.name + "_col");
   o << ind << "  <site name=\"" << spec.tip_link << "\" pos=\"0 0 " << num(spec.tcp_offset)
     << "\" size=\"0.005\" rgba=\"1 0 0 1\"/>\n";
@@ -206,6 +229,12 @@ std::string rpyForZ(const Vector3d& axis) {
   return num(roll) + " " + num(pitch) + " " + num(yaw);
 }
 
+std::string rpyOfQuat(const std::array<double, 4>& q) {
+  const Matrix3d R = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
+  const double pitch = std::asin(-std::clamp(R(2, 0), -1.0, 1.0));
+  return num(std::atan2(R(2, 1), R(2, 2))) + " " + num(pitch) + " " + num(std::atan2(R(1, 0), R(0, 0)));
+}
+
 std::string urdfCollision(const LinkSpec& link) {
   std::ostringstream o;
   auto sphere = [&](const Vector3d& c, double r) {
@@ -215,7 +244,8 @@ std::string urdfCollision(const LinkSpec& link) {
   for (const auto& s : link.shapes) {
     switch (s.type) {
       case ShapeSpec::Type::kBox:
-        o << "    <collision>\n      <origin xyz=\"" << vec(toV(s.pos)) << "\" rpy=\"0 0 0\"/>\n"
+        o << "    <collision>\n      <origin xyz=\"" << vec(toV(s.pos)) << "\" rpy=\""
+          << (identityQuat(s.quat) ? std::string("0 0 0") : rpyOfQuat(s.quat)) << "\"/>\n"
           << "      <geometry><box size=\"" << vec(2 * toV(s.half)) << "\"/></geometry>\n    </collision>\n";
         break;
       case ShapeSpec::Type::kSphere: sphere(toV(s.pos), s.radius); break;
@@ -252,15 +282,16 @@ std::string writeUrdf(const RobotSpec& spec) {
   for (size_t i = 0; i < n; ++i) {
     const auto& j = spec.joints[i];
     o << "  <joint name=\"" << j.name << "\" type=\"revolute\">\n    <parent link=\"" << spec.links[i].name
-      << "\"/>\n    <child link=\"" << spec.links[i + 1].name << "\"/>\n    <origin xyz=\"" << vec(dhPos(j))
-      << "\" rpy=\"" << num(j.alpha) << " 0 0\"/>\n    <axis xyz=\"0 0 1\"/>\n    <limit lower=\"" << num(j.lower)
+      << "\"/>\n    <child link=\"" << spec.links[i + 1].name << "\"/>\n    <origin xyz=\""
+      << (j.dh ? vec(dhPos(j)) : vec(toV(j.xyz))) << "\" rpy=\"" << (j.dh ? num(j.alpha) + " 0 0" : rpyText(j.rpy))
+      << "\"/>\n    <axis xyz=\"" << (j.dh ? std::string("0 0 1") : vec(toV(j.axis))) << "\"/>\n    <limit lower=\"" << num(j.lower)
       << "\" upper=\"" << num(j.upper) << "\" effort=\"" << num(j.effort) << "\" velocity=\"" << num(j.velocity)
       << "\"/>\n    <dynamics damping=\"" << num(spec.damping) << "\"/>\n  </joint>\n";
   }
   const auto& hand = spec.links[n + 1];
   o << "  <joint name=\"" << hand.name << "_joint\" type=\"fixed\">\n    <parent link=\"" << spec.links[n].name
-    << "\"/>\n    <child link=\"" << hand.name << "\"/>\n    <origin xyz=\"0 0 " << num(spec.flange_d)
-    << "\" rpy=\"0 0 " << num(spec.hand_yaw) << "\"/>\n  </joint>\n";
+    << "\"/>\n    <child link=\"" << hand.name << "\"/>\n    <origin xyz=\"" << vec(toV(spec.flange_xyz))
+    << "\" rpy=\"" << rpyText(spec.flange_rpy) << "\"/>\n  </joint>\n";
   o << "  <joint name=\"" << spec.tip_link << "_joint\" type=\"fixed\">\n    <parent link=\"" << hand.name
     << "\"/>\n    <child link=\"" << spec.tip_link << "\"/>\n    <origin xyz=\"0 0 " << num(spec.tcp_offset)
     << "\" rpy=\"0 0 0\"/>\n  </joint>\n";

@@ -1,7 +1,5 @@
 #include "robot/robot_model.h"
 
-#include <console_bridge/console.h>
-#include <tinyxml2.h>
 #include <urdf_parser/urdf_parser.h>
 
 #include <filesystem>
@@ -11,6 +9,7 @@
 
 #include "core/error.h"
 #include "robot/description_writer.h"
+#include "robot/urdf_parse.h"
 
 namespace mm {
 namespace {
@@ -21,33 +20,6 @@ Pose toPose(const urdf::Pose& p) {
   return makePose(Vec3(p.position.x, p.position.y, p.position.z), Quat(w, x, y, z));
 }
 
-// Collects urdfdom's console messages so a rejected URDF is reported with urdfdom's reason.
-class CaptureHandler : public console_bridge::OutputHandler {
- public:
-  void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
-    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_ERROR) messages += (messages.empty() ? "" : "; ") + text;
-  }
-  std::string messages;
-};
-
-// Parses a URDF text; `origin` names it in errors.
-urdf::ModelInterfaceSharedPtr parseUrdf(const std::string& text, const std::string& origin) {
-  tinyxml2::XMLDocument doc;
-  if (doc.Parse(text.c_str()) != tinyxml2::XML_SUCCESS)
-    throw InputError(origin + ":" + std::to_string(doc.ErrorLineNum()),
-                     std::string("malformed XML (expected a URDF robot description): ") + doc.ErrorStr());
-  static std::mutex mutex;  // console_bridge's handler is global
-  std::lock_guard<std::mutex> lock(mutex);
-  CaptureHandler handler;
-  console_bridge::useOutputHandler(&handler);
-  auto model = urdf::parseURDF(text);
-  console_bridge::restorePreviousOutputHandler();
-  if (!model)
-    throw InputError(origin, "not a valid URDF robot description: " +
-                                 (handler.messages.empty() ? std::string("urdfdom rejected it") : handler.messages));
-  return model;
-}
-
 }  // namespace
 
 RobotModel RobotModel::load(const std::string& spec_yaml, const std::string& gripper_yaml) {
@@ -56,7 +28,7 @@ RobotModel RobotModel::load(const std::string& spec_yaml, const std::string& gri
   const RobotSpec& s = m.spec_;
   // The kinematic tree as a URDF reader sees it: the URDF written from the arm and its gripper.
   const std::string urdf_path = s.file + " with " + s.gripper.file;
-  auto model = parseUrdf(writeUrdf(s), urdf_path);
+  auto model = parseUrdfText(writeUrdf(s), urdf_path);
 
   // Chain from tip to base.
   auto tip = model->getLink(s.tip_link);

@@ -1,64 +1,15 @@
 #include "robot/robot_spec.h"
 
-#include <yaml-cpp/yaml.h>
-
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 
 #include "core/error.h"
+#include "robot/spec_reader.h"
 
 namespace mm {
+namespace spec_io {
 namespace {
-
-struct Reader {
-  std::string file;
-  std::string at(const YAML::Node& n) const {
-    return file + ":" + std::to_string(n.Mark().line + 1) + ":" + std::to_string(n.Mark().column + 1);
-  }
-  YAML::Node require(const YAML::Node& map, const char* key, const YAML::Node& parent) const {
-    if (!map.IsMap()) throw InputError(at(parent), std::string("expected a map holding '") + key + "'");
-    if (!map[key]) throw InputError(at(parent), std::string("missing key '") + key + "'");
-    return map[key];
-  }
-  double number(const YAML::Node& map, const char* key) const {
-    YAML::Node n = require(map, key, map);
-    double v;
-    try {
-      v = n.as<double>();
-    } catch (const YAML::Exception&) {
-      throw InputError(at(n), std::string("'") + key + "' expects a number");
-    }
-    if (!std::isfinite(v)) throw InputError(at(n), std::string("'") + key + "' must be finite");
-    return v;
-  }
-  double positive(const YAML::Node& map, const char* key) const {
-    const double v = number(map, key);
-    if (v <= 0) throw InputError(at(map[key]), std::string("'") + key + "' must be > 0");
-    return v;
-  }
-  std::string text(const YAML::Node& map, const char* key) const {
-    YAML::Node n = require(map, key, map);
-    if (!n.IsScalar() || n.Scalar().empty())
-      throw InputError(at(n), std::string("'") + key + "' expects a non-empty string");
-    return n.Scalar();
-  }
-  std::array<double, 3> vec3(const YAML::Node& map, const char* key) const {
-    YAML::Node n = require(map, key, map);
-    if (!n.IsSequence() || n.size() != 3)
-      throw InputError(at(n), std::string("'") + key + "' expects a list of 3 numbers");
-    std::array<double, 3> v{};
-    for (size_t i = 0; i < 3; ++i) {
-      try {
-        v[i] = n[i].as<double>();
-      } catch (const YAML::Exception&) {
-        throw InputError(at(n[i]), std::string("'") + key + "' expects numbers");
-      }
-      if (!std::isfinite(v[i])) throw InputError(at(n[i]), std::string("'") + key + "' must be finite");
-    }
-    return v;
-  }
-};
 
 ShapeSpec readShape(const Reader& r, const YAML::Node& n) {
   ShapeSpec s;
@@ -86,6 +37,8 @@ ShapeSpec readShape(const Reader& r, const YAML::Node& n) {
   return s;
 }
 
+}  // namespace
+
 LinkSpec readLink(const Reader& r, const YAML::Node& l) {
   LinkSpec ls;
   ls.name = r.text(l, "name");
@@ -111,7 +64,31 @@ YAML::Node loadYaml(const std::string& path, const char* what) {
   return root;
 }
 
-}  // namespace
+void mountGripper(RobotSpec& s, const std::string& gpath) {
+  s.gripper = loadGripperSpec(gpath);
+  s.tip_link = s.gripper.tcp;
+  s.tcp_offset = s.gripper.tcp_offset;
+  s.links.push_back(s.gripper.hand);
+  s.links.push_back(s.gripper.fingers[0]);
+  s.links.push_back(s.gripper.fingers[1]);
+  // Every name once: the descriptions and the simulator find bodies and joints by name.
+  std::vector<std::string> seen;
+  for (const auto& l : s.links) seen.push_back(l.name);
+  for (const auto& j : s.joints) seen.push_back(j.name);
+  seen.push_back(s.tip_link);
+  seen.push_back(s.gripper.finger_joints[0]);
+  seen.push_back(s.gripper.finger_joints[1]);
+  std::sort(seen.begin(), seen.end());
+  for (size_t i = 1; i < seen.size(); ++i)
+    if (seen[i] == seen[i - 1])
+      throw InputError(s.file, "the name '" + seen[i] + "' is used twice by the arm and its gripper (" + gpath + ")");
+}
+
+}  // namespace spec_io
+
+using spec_io::Reader;
+using spec_io::loadYaml;
+using spec_io::readLink;
 
 std::vector<std::string> RobotSpec::names() const {
   std::vector<std::string> out{name, base_link, tip_link, gripper.name, gripper.finger_joints[0], gripper.finger_joints[1]};
@@ -151,6 +128,7 @@ std::string RobotSpec::mjcfPath() const { return (std::filesystem::path(director
 std::string RobotSpec::urdfPath() const { return (std::filesystem::path(directory()) / (name + ".urdf")).string(); }
 
 RobotSpec loadRobotSpec(const std::string& path, const std::string& gripper_yaml) {
+  if (std::filesystem::path(path).extension() == ".urdf") return loadUrdfRobotSpec(path, gripper_yaml);
   Reader r{path};
   const YAML::Node root = loadYaml(path, "a robot YAML describing an arm");
   RobotSpec s;
@@ -178,10 +156,14 @@ RobotSpec loadRobotSpec(const std::string& path, const std::string& gripper_yaml
     js.acceleration = r.positive(j, "acceleration");
     js.jerk = r.positive(j, "jerk");
     js.effort = r.positive(j, "effort");
+    js.xyz = {js.a, -std::sin(js.alpha) * js.d, std::cos(js.alpha) * js.d};
+    js.rpy = {js.alpha, 0, 0};
     s.joints.push_back(js);
   }
   s.flange_d = r.number(root, "flange_d");
   s.hand_yaw = r.number(root, "hand_yaw");
+  s.flange_xyz = {0, 0, s.flange_d};
+  s.flange_rpy = {0, 0, s.hand_yaw};
   const YAML::Node home = r.require(root, "home", root);
   if (!home.IsSequence() || home.size() != s.joints.size())
     throw InputError(r.at(home), "'home' expects " + std::to_string(s.joints.size()) + " joint values");
@@ -212,23 +194,7 @@ RobotSpec loadRobotSpec(const std::string& path, const std::string& gripper_yaml
     const std::string rel = r.text(root, "gripper");
     gpath = std::filesystem::path(rel).is_absolute() ? rel : (std::filesystem::path(s.directory()) / rel).lexically_normal().string();
   }
-  s.gripper = loadGripperSpec(gpath);
-  s.tip_link = s.gripper.tcp;
-  s.tcp_offset = s.gripper.tcp_offset;
-  s.links.push_back(s.gripper.hand);
-  s.links.push_back(s.gripper.fingers[0]);
-  s.links.push_back(s.gripper.fingers[1]);
-  // Every name once: the descriptions and the simulator find bodies and joints by name.
-  std::vector<std::string> seen;
-  for (const auto& l : s.links) seen.push_back(l.name);
-  for (const auto& j : s.joints) seen.push_back(j.name);
-  seen.push_back(s.tip_link);
-  seen.push_back(s.gripper.finger_joints[0]);
-  seen.push_back(s.gripper.finger_joints[1]);
-  std::sort(seen.begin(), seen.end());
-  for (size_t i = 1; i < seen.size(); ++i)
-    if (seen[i] == seen[i - 1])
-      throw InputError(path, "the name '" + seen[i] + "' is used twice by the arm and its gripper (" + gpath + ")");
+  spec_io::mountGripper(s, gpath);
   return s;
 }
 

@@ -11,7 +11,12 @@ namespace mm {
 
 struct JointSpec {
   std::string name;
+  /// Where the joint sits in the previous joint's frame and its axis there. A joint written in
+  /// modified DH (`dh`) has origin Rx(alpha) Tx(a) Tz(d) and axis z; one read from a URDF keeps its
+  /// origin and axis, and gets `dh` (with a, d, alpha) when they have that form.
+  bool dh = true;
   double a = 0, d = 0, alpha = 0;  ///< modified DH of this joint [m, m, rad]
+  std::array<double, 3> xyz{}, rpy{}, axis{0, 0, 1};  ///< origin [m], roll-pitch-yaw [rad], unit axis
   double lower = 0, upper = 0;     ///< position limits [rad]
   double velocity = 0;             ///< [rad/s]
   double acceleration = 0;         ///< [rad/s^2]
@@ -25,6 +30,7 @@ struct ShapeSpec {
   std::array<double, 3> from{}, to{};  ///< capsule/cylinder axis end points [m]
   std::array<double, 3> pos{};         ///< box/sphere center [m]
   std::array<double, 3> half{};        ///< box half sizes [m]
+  std::array<double, 4> quat{1, 0, 0, 0};  ///< box orientation (w, x, y, z)
   double radius = 0;                   ///< [m]
 };
 
@@ -32,6 +38,11 @@ struct LinkSpec {
   std::string name;
   double mass = 0;  ///< [kg]
   std::vector<ShapeSpec> shapes;  ///< in the link frame
+  /// A description's own inertia (a URDF's); without it, the writers spread the mass uniformly over
+  /// the shapes.
+  bool has_inertia = false;
+  std::array<double, 3> com{};      ///< [m] in the link frame
+  std::array<double, 6> inertia{};  ///< about com, link axes: ixx iyy izz ixy ixz iyz [kg m^2]
 };
 
 /// A two-finger parallel gripper: a hand body on the flange (z along the approach), two fingers
@@ -52,12 +63,16 @@ struct GripperSpec {
 };
 
 struct RobotSpec {
-  std::string file;  ///< where it was read from
+  std::string file;  ///< where it was read from (an arm YAML, or a URDF)
+  std::string sidecar;  ///< a URDF's companion YAML (<file>.yaml), when there is one
   std::string name, base_link;
   std::string tip_link;           ///< the gripper's TCP
   std::vector<JointSpec> joints;  ///< arm joints, base to tip
   double flange_d = 0;            ///< [m] flange along the last joint's z
   double hand_yaw = 0;            ///< [rad] the gripper's mounting angle about the flange z
+  /// Where the gripper's hand sits in the last joint's frame: (0, 0, flange_d) and (0, 0, hand_yaw)
+  /// for an arm written in DH; a URDF's fixed joints to its flange link, then flange_d and hand_yaw.
+  std::array<double, 3> flange_xyz{}, flange_rpy{};  ///< [m], roll-pitch-yaw [rad]
   double tcp_offset = 0;          ///< [m] the gripper's TCP past the flange
   /// The closed-form IK the robot declares ("panda", "ur"; empty: none). The solver checks the
   /// kinematic structure when it is made, so a wrong declaration is an input error.
@@ -76,10 +91,13 @@ struct RobotSpec {
   std::string urdfPath() const;  ///< <dir>/<name>.urdf
 };
 
-/// Reads and validates a robot YAML and mounts a gripper: `gripper_yaml`, or when empty the one
-/// the robot's file names (relative to that file). Throws InputError naming file:line and what
-/// was expected.
+/// Reads and validates a robot — an arm YAML, or a URDF (`.urdf`) with an optional companion YAML
+/// beside it (`<file>.yaml`: what a URDF lacks) — and mounts a gripper: `gripper_yaml`, or when
+/// empty the one the robot's file names (relative to that file). Throws InputError naming
+/// file:line and what was expected.
 RobotSpec loadRobotSpec(const std::string& path, const std::string& gripper_yaml = "");
+/// The URDF branch of loadRobotSpec (robot/urdf_robot.cc).
+RobotSpec loadUrdfRobotSpec(const std::string& urdf_path, const std::string& gripper_yaml);
 /// Reads and validates a gripper YAML.
 GripperSpec loadGripperSpec(const std::string& path);
 

@@ -130,6 +130,9 @@ class BadRobotFiles : public ::testing::Test {
     std::filesystem::copy_file("robots/panda/panda.yaml", dir_ / "panda.yaml");
     std::filesystem::copy_file("robots/grippers/panda_hand.yaml", dir_ / "grippers" / "panda_hand.yaml");
     replaceIn("panda.yaml", "gripper: ../grippers/panda_hand.yaml", "gripper: grippers/panda_hand.yaml");
+    std::filesystem::copy_file("robots/panda/panda.urdf", dir_ / "panda.urdf");
+    std::filesystem::copy_file("robots/panda/panda.urdf.yaml", dir_ / "panda.urdf.yaml");
+    replaceIn("panda.urdf.yaml", "gripper: ../grippers/panda_hand.yaml", "gripper: grippers/panda_hand.yaml");
   }
   void TearDown() override { std::filesystem::remove_all(dir_); }
   void replaceIn(const std::string& file, const std::string& from, const std::string& to) {
@@ -139,9 +142,9 @@ class BadRobotFiles : public ::testing::Test {
     s.replace(pos, from.size(), to);
     std::ofstream((dir_ / file).string()) << s;
   }
-  std::string loadError() {
+  std::string loadError(const std::string& file = "panda.yaml") {
     try {
-      RobotModel::load((dir_ / "panda.yaml").string());
+      RobotModel::load((dir_ / file).string());
     } catch (const InputError& e) {
       return e.what();
     }
@@ -149,6 +152,51 @@ class BadRobotFiles : public ::testing::Test {
   }
   std::filesystem::path dir_;
 };
+
+TEST_F(BadRobotFiles, TheCopiesLoad) {
+  EXPECT_EQ(loadError("panda.yaml"), "");
+  EXPECT_EQ(loadError("panda.urdf"), "");
+}
+
+TEST_F(BadRobotFiles, MalformedUrdfNamesFileAndLine) {
+  replaceIn("panda.urdf", "<link name=\"panda_link3\">", "<link name=\"panda_link3\"");
+  EXPECT_THAT(loadError("panda.urdf"), ::testing::MatchesRegex(".*panda\\.urdf:[0-9]+: malformed XML.*"));
+}
+
+TEST_F(BadRobotFiles, UrdfMissingLinkIsRejected) {
+  replaceIn("panda.urdf", "<child link=\"panda_link4\"/>", "<child link=\"panda_nolink\"/>");
+  EXPECT_THAT(loadError("panda.urdf"), ::testing::HasSubstr("panda.urdf: not a valid URDF"));
+}
+
+TEST_F(BadRobotFiles, UrdfCycleIsRejected) {
+  // panda_link2 made the child of panda_link4 too: two parents, a cycle.
+  replaceIn("panda.urdf", "<joint name=\"panda_joint5\" type=\"revolute\">\n    <parent link=\"panda_link4\"/>\n    <child link=\"panda_link5\"/>",
+            "<joint name=\"panda_joint5\" type=\"revolute\">\n    <parent link=\"panda_link4\"/>\n    <child link=\"panda_link2\"/>");
+  EXPECT_THAT(loadError("panda.urdf"), ::testing::HasSubstr("panda.urdf: not a valid URDF"));
+}
+
+TEST_F(BadRobotFiles, UrdfBadLimitsAreRejected) {
+  replaceIn("panda.urdf", "<limit lower=\"-1.7628\" upper=\"1.7628\"", "<limit lower=\"1.7628\" upper=\"-1.7628\"");
+  EXPECT_THAT(loadError("panda.urdf"), ::testing::HasSubstr("joint 'panda_joint2': expected <limit lower < upper>"));
+}
+
+TEST_F(BadRobotFiles, UrdfMeshesDaeAndUnresolvedPackagesAreRejected) {
+  const std::string cyl = "<geometry><cylinder radius=\"0.09\" length=\"0.14\"/></geometry>";
+  replaceIn("panda.urdf", cyl, "<geometry><mesh filename=\"meshes/link0.dae\"/></geometry>");
+  EXPECT_THAT(loadError("panda.urdf"), ::testing::HasSubstr("link0.dae' is COLLADA (.dae), which MuJoCo 2.2 cannot read"));
+  replaceIn("panda.urdf", "meshes/link0.dae", "package://franka_description/meshes/link0.stl");
+  EXPECT_THAT(loadError("panda.urdf"), ::testing::HasSubstr("panda.urdf: link 'panda_link0': cannot resolve 'package://franka_description/meshes/link0.stl'"));
+  replaceIn("panda.urdf", "package://franka_description/meshes/link0.stl", "meshes/none.stl");
+  EXPECT_THAT(loadError("panda.urdf"), ::testing::HasSubstr("cannot read mesh"));
+}
+
+TEST_F(BadRobotFiles, UrdfCompanionUnknownKeyAndMissingGripper) {
+  replaceIn("panda.urdf.yaml", "damping: 0.5", "dampin: 0.5");
+  EXPECT_THAT(loadError("panda.urdf"), ::testing::MatchesRegex(".*panda\\.urdf\\.yaml:[0-9]+:[0-9]+: unknown key 'dampin'.*"));
+  replaceIn("panda.urdf.yaml", "dampin: 0.5", "damping: 0.5");
+  replaceIn("panda.urdf.yaml", "gripper: grippers/panda_hand.yaml", "");
+  EXPECT_THAT(loadError("panda.urdf"), ::testing::HasSubstr("no gripper"));
+}
 
 TEST_F(BadRobotFiles, MissingGripperFileIsNamed) {
   replaceIn("panda.yaml", "gripper: grippers/panda_hand.yaml", "gripper: grippers/none.yaml");
@@ -189,7 +237,7 @@ TEST(RobotNames, NoRobotLinkOrJointNameAppearsInTheSource) {
   std::set<std::string> names;
   std::vector<std::string> robot_files, gripper_files;
   for (const auto& e : fs::recursive_directory_iterator("robots")) {
-    if (e.path().extension() != ".yaml") continue;
+    if (e.path().extension() != ".yaml" || e.path().stem().extension() == ".urdf") continue;  // not a URDF's companion
     (e.path().parent_path().filename() == "grippers" ? gripper_files : robot_files).push_back(e.path().string());
   }
   ASSERT_GE(robot_files.size(), 2u);
@@ -214,6 +262,40 @@ TEST(RobotNames, NoRobotLinkOrJointNameAppearsInTheSource) {
           hits.push_back(e.path().string() + ": " + n);
   }
   EXPECT_THAT(hits, ::testing::IsEmpty());
+}
+
+}  // namespace
+}  // namespace mm
+
+namespace mm {
+namespace {
+
+// The Panda from its URDF (panda.urdf + panda.urdf.yaml) is the Panda from its YAML: the same
+// chain, limits, home and analytic IK; FK equal within 1e-9 over 200 random configurations.
+TEST(RobotFromUrdf, ThePandaFromItsUrdfIsThePandaFromItsYaml) {
+  const RobotModel a = RobotModel::load("robots/panda/panda.yaml");
+  const RobotModel b = RobotModel::load("robots/panda/panda.urdf");
+  ASSERT_EQ(a.dof(), b.dof());
+  EXPECT_EQ(a.jointNames(), b.jointNames());
+  for (int i = 0; i < a.dof(); ++i) {
+    EXPECT_NEAR(a.lower()[i], b.lower()[i], 1e-12);
+    EXPECT_NEAR(a.upper()[i], b.upper()[i], 1e-12);
+    EXPECT_NEAR(a.vmax()[i], b.vmax()[i], 1e-12);
+    EXPECT_EQ(a.amax()[i], b.amax()[i]);
+    EXPECT_EQ(a.jmax()[i], b.jmax()[i]);
+    EXPECT_EQ(a.home()[i], b.home()[i]);
+    EXPECT_TRUE(b.spec().joints[i].dh) << i;  // the DH form recognized from the URDF's origins
+  }
+  EXPECT_EQ(a.collisionShapes().size(), b.collisionShapes().size());  // capsules recognized
+  EXPECT_EQ(b.spec().analytic_ik, "panda");
+  EXPECT_EQ(a.links()[a.handLink()].name, b.links()[b.handLink()].name);
+  Rng rng(21);
+  double worst = 0;
+  for (int t = 0; t < 200; ++t) {
+    const VecX q = randomConfig(a, rng);
+    worst = std::max(worst, (a.fk(q).matrix() - b.fk(q).matrix()).cwiseAbs().maxCoeff());
+  }
+  EXPECT_LT(worst, 1e-9);
 }
 
 }  // namespace
