@@ -1,8 +1,10 @@
 #include "campaign/ik_bench.h"
 
+#include <Eigen/SVD>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -36,16 +38,81 @@ std::vector<Pose> randomPoses(const RobotModel& r, int n, Rng& rng) {
   return out;
 }
 
-// Shoulder (q2 ~ 0: joints 1 and 3 aligned), elbow (q4 near its upper limit: the arm stretched)
-// and wrist (q6 ~ 0) singularities, one family per pose in turn, within 0.03 rad.
+// Where joint j alone brings the axes of joints j-1 and j+1 into line (the Panda's q2 = 0, q4 = 0,
+// q6 = 0; the UR's wrist, q5 = 0 or pi): the relative rotation of those axes depends on q_j only.
+// Roots up to 0.1 rad outside the limits count, clamped (near-singular within reach).
+struct AlignmentFamily {
+  int joint;
+  std::vector<double> roots;
+};
+std::vector<AlignmentFamily> alignmentFamilies(const RobotModel& r) {
+  std::vector<AlignmentFamily> out;
+  std::vector<Pose> T;
+  for (int j = 1; j + 1 < r.dof(); ++j) {
+    auto misalignment = [&](double qj) {
+      VecX q = VecX::Zero(r.dof());
+      q[j] = qj;
+      r.frames(q, T);
+      const Vec3 a = T[j].linear() * r.jointAxis(j - 1), b = T[j + 2].linear() * r.jointAxis(j + 1);
+      return a.cross(b).norm();
+    };
+    const double lo = r.lower()[j] - 0.1, hi = r.upper()[j] + 0.1;
+    const int kGrid = 2000;
+    std::vector<double> f(kGrid + 1);
+    for (int k = 0; k <= kGrid; ++k) f[k] = misalignment(lo + (hi - lo) * k / kGrid);
+    if (*std::max_element(f.begin(), f.end()) < 1e-9) continue;  // always parallel: not a singularity of q_j
+    AlignmentFamily fam{j, {}};
+    for (int k = 0; k <= kGrid; ++k) {
+      if (f[k] > 0.02 || (k > 0 && f[k - 1] < f[k]) || (k < kGrid && f[k + 1] < f[k])) continue;
+      // Refine the grid minimum by golden section.
+      double x0 = lo + (hi - lo) * std::max(0, k - 1) / kGrid, x1 = lo + (hi - lo) * std::min(kGrid, k + 1) / kGrid;
+      for (int it = 0; it < 60; ++it) {
+        const double m1 = x0 + 0.382 * (x1 - x0), m2 = x0 + 0.618 * (x1 - x0);
+        if (misalignment(m1) < misalignment(m2)) x1 = m2;
+        else x0 = m1;
+      }
+      const double root = 0.5 * (x0 + x1);
+      if (misalignment(root) < 1e-6) fam.roots.push_back(std::clamp(root, r.lower()[j], r.upper()[j]));
+    }
+    if (!fam.roots.empty()) out.push_back(fam);
+  }
+  return out;
+}
+
+// Smallest singular value of the TCP Jacobian (6 x dof).
+double sigmaMin(const RobotModel& r, const VecX& q) {
+  Jacobian J;
+  r.jacobian(q, J);
+  return Eigen::JacobiSVD<Eigen::MatrixXd>(J).singularValues().minCoeff();
+}
+
+// Near-singular poses, families in turn within 0.03 rad: each alignment family (a random root),
+// and configurations where the Jacobian loses rank (a stretched elbow; the UR's shoulder, its
+// wrist centre over the base axis), found by coordinate descent on the smallest singular value
+// from a random configuration, within the limits.
 std::vector<Pose> singularPoses(const RobotModel& r, int n, Rng& rng) {
+  const std::vector<AlignmentFamily> align = alignmentFamilies(r);
+  const int families = static_cast<int>(align.size()) + 1;
   std::vector<Pose> out;
   for (int i = 0; i < n; ++i) {
     VecX q = uniformConfig(r, rng);
-    switch (i % 3) {
-      case 0: q[1] = rng.uniform(-0.03, 0.03); break;
-      case 1: q[3] = rng.uniform(r.upper()[3] - 0.03, r.upper()[3]); break;
-      default: q[5] = rng.uniform(r.lower()[5], r.lower()[5] + 0.03); break;
+    const int f = i % families;
+    if (f < static_cast<int>(align.size())) {
+      const AlignmentFamily& a = align[f];
+      const double root = a.roots[rng.below(a.roots.size())];
+      q[a.joint] = std::clamp(root + rng.uniform(-0.03, 0.03), r.lower()[a.joint], r.upper()[a.joint]);
+    } else {
+      for (int sweep = 0; sweep < 4; ++sweep)
+        for (int j = 0; j < r.dof(); ++j) {
+          double best = q[j], best_s = sigmaMin(r, q);
+          for (int k = 0; k <= 64; ++k) {
+            q[j] = r.lower()[j] + (r.upper()[j] - r.lower()[j]) * k / 64;
+            const double sv = sigmaMin(r, q);
+            if (sv < best_s) best_s = sv, best = q[j];
+          }
+          q[j] = best;
+        }
+      for (int j = 0; j < r.dof(); ++j) q[j] = std::clamp(q[j] + rng.uniform(-0.03, 0.03), r.lower()[j], r.upper()[j]);
     }
     out.push_back(r.fk(q));
   }
@@ -141,7 +208,10 @@ std::string runIkBench(const IkBenchOptions& o) {
   if (o.tip != "tcp" && o.tip != "flange") throw InputError("--tip " + o.tip, "expected tcp or flange");
   const RobotModel loaded = RobotModel::load(robot_path);
   const RobotModel robot = o.tip == "flange" ? loaded.withFlangeTip() : loaded;
-  std::vector<std::string> names = o.solvers.empty() ? ikSolverNames() : o.solvers;
+  std::vector<std::string> names = o.solvers;
+  if (names.empty())  // every solver; "auto" is one of them under another name
+    for (const auto& n : ikSolverNames())
+      if (n != "auto") names.push_back(n);
   std::vector<std::unique_ptr<IkSolver>> solvers;
   for (const auto& name : names) solvers.push_back(makeIkSolver(name, robot));  // InputError on a bad name
   for (const auto& s : o.sets)
@@ -176,6 +246,21 @@ std::string runIkBench(const IkBenchOptions& o) {
      << "; seed configuration at joint mid-range; tolerance 1e-5 m and 1e-5 rad; budget " << std::setprecision(3)
      << o.budget * 1000 << " ms per solve (wall-clock cap); " << cpuModel() << ", "
      << std::thread::hardware_concurrency() << " cores. Times are wall time per solve.\n\n";
+  if (std::find(o.sets.begin(), o.sets.end(), "singular") != o.sets.end()) {
+    std::string fams;
+    for (const AlignmentFamily& a : alignmentFamilies(robot)) {
+      fams += "joint " + std::to_string(a.joint + 1) + " at";
+      for (double x : a.roots) {
+        char buf[32];
+        std::snprintf(buf, sizeof buf, " %.4g", x);
+        fams += buf;
+      }
+      fams += " (axes " + std::to_string(a.joint) + " and " + std::to_string(a.joint + 2) + " aligned); ";
+    }
+    md << "Near-singular families, in turn: " << fams << "the Jacobian's rank lost (coordinate descent on its smallest "
+       << "singular value); each within 0.03 rad.\n\n";
+    j["singular_families"] = fams + "rank loss by descent";
+  }
   json jsets = json::object();
   for (const auto& [set_name, poses] : sets) {
     md << "**" << set_name << "** (" << poses.size() << " poses)\n\n";

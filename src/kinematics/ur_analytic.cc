@@ -44,21 +44,51 @@ int UrAnalyticIk::solve(const Pose& T_base_tcp, double q6_singular, std::array<J
   // about y1's direction, and only d4 moves along it: p5 . y1 = -d4 with y1 = (-sin q1, cos q1, 0).
   const Vec3 p5 = p - d6_ * a;
   const double r = std::hypot(p5.x(), p5.y());
-  if (r < std::abs(d4_) || r < 1e-12) return 0;
-  const double psi = std::atan2(p5.y(), p5.x()), phi = std::asin(d4_ / r);
+  // At the shoulder singularity r = |d4| (the two shoulder branches meet); rounding may put r
+  // a hair below it.
+  if (r < std::abs(d4_) - 1e-9 || r < 1e-12) return 0;
+  const double psi = std::atan2(p5.y(), p5.x()), phi = std::asin(std::clamp(d4_ / r, -1.0, 1.0));
   int count = 0;
   for (const double q1 : {psi + phi, psi + M_PI - phi}) {
     const double s1 = std::sin(q1), c1 = std::cos(q1);
     const Vec3 y1(-s1, c1, 0);
     // The tool axis is frame 5's y: z6 . y1 = -cos q5.
     const double c5 = std::clamp(-a.dot(y1), -1.0, 1.0);
-    if (std::abs(-a.dot(y1)) > 1 + 1e-9) continue;
-    const double q5a = std::acos(c5);
+    const double q5a = std::atan2(a.cross(y1).norm(), c5);  // not acos: it resolves angles near 0 to 1e-8 only
     for (const double q5 : {q5a, -q5a}) {
       const double s5 = std::sin(q5);
       // y1 in frame 6 is (-cos q6 sin q5, sin q6 sin q5, -cos q5).
       double q6 = q6_singular;
-      if (std::abs(s5) > 1e-9) q6 = std::atan2(o.dot(y1) / s5, -n.dot(y1) / s5);
+      if (std::abs(s5) > 1e-9) {
+        q6 = std::atan2(o.dot(y1) / s5, -n.dot(y1) / s5);
+      } else {
+        // Wrist singularity (axes 4 and 6 in line): only q4 + q6 is fixed, and the split decides
+        // where frame 4's origin lies, on a circle of radius d5 about the wrist centre in the arm's
+        // plane. Keep the given q6 when the elbow reaches that origin; else take the nearest split
+        // that it reaches. Frame 5's z in frame 6 is (-sin q6, -cos q6, 0) whatever q5.
+        const Mat3 R02 = Eigen::AngleAxisd(q1, Vec3::UnitZ()).toRotationMatrix() * Eigen::AngleAxisd(M_PI / 2, Vec3::UnitX()).toRotationMatrix();
+        const Vec3 P = R02.transpose() * (p5 - Vec3(0, 0, d1_));  // wrist centre in frame 2 (z = d4)
+        const Vec3 z5_given = R02.transpose() * (T.linear() * Vec3(-std::sin(q6), -std::cos(q6), 0));
+        const double rp = std::hypot(P.x(), P.y()), tp = std::atan2(P.y(), P.x());
+        const double rmin = std::abs(std::abs(a2_) - std::abs(a3_)), rmax = std::abs(a2_) + std::abs(a3_);
+        // |o4|^2 = rp^2 + d5^2 - 2 d5 rp cos(phi - tp), o4 = P - d5 u(phi).
+        if (rp > 1e-12 && d5_ > 1e-12) {
+          const double phi_given = std::atan2(z5_given.y(), z5_given.x());
+          const double c_given = std::cos(phi_given - tp);
+          const double c_lo = (rp * rp + d5_ * d5_ - rmax * rmax) / (2 * d5_ * rp);  // cos >= c_lo reaches
+          const double c_hi = (rp * rp + d5_ * d5_ - rmin * rmin) / (2 * d5_ * rp);  // cos <= c_hi reaches
+          if (c_given < c_lo - 1e-12 || c_given > c_hi + 1e-12) {
+            const double c = std::clamp(c_given < c_lo ? c_lo : c_hi, -1.0, 1.0);
+            const double d = std::acos(c);
+            const double phi = std::abs(std::remainder(tp + d - phi_given, 2 * M_PI)) <
+                                       std::abs(std::remainder(tp - d - phi_given, 2 * M_PI))
+                                   ? tp + d
+                                   : tp - d;
+            const Vec3 z5 = T.linear().transpose() * (R02 * Vec3(std::cos(phi), std::sin(phi), 0));
+            q6 = std::atan2(-z5.x(), -z5.y());
+          }
+        }
+      }
       // Frame 4 from frame 6 back through joints 6 and 5, then seen from frame 2's plane.
       const Pose T_0_1 = makePose(Vec3(0, 0, d1_), Eigen::AngleAxisd(q1, Vec3::UnitZ()).toRotationMatrix());
       const Mat3 Rx_p = Eigen::AngleAxisd(M_PI / 2, Vec3::UnitX()).toRotationMatrix();
@@ -70,7 +100,7 @@ int UrAnalyticIk::solve(const Pose& T_base_tcp, double q6_singular, std::array<J
       const Pose M = makePose(Vec3::Zero(), Rx_p.transpose()) * T_0_1.inverse() * T * (T_4_5 * T_5_6).inverse();
       const double x = M.translation().x(), y = M.translation().y();
       const double c3 = (x * x + y * y - a2_ * a2_ - a3_ * a3_) / (2 * a2_ * a3_);
-      if (std::abs(c3) > 1 + 1e-9) continue;
+      if (std::abs(c3) > 1 + 1e-7) continue;  // out of reach (a hair past: the stretched elbow, rounded)
       const double q3a = std::acos(std::clamp(c3, -1.0, 1.0));
       const double q234 = std::atan2(M.linear()(1, 0), M.linear()(0, 0));
       for (const double q3 : {q3a, -q3a}) {

@@ -70,6 +70,32 @@ TEST(UrAnalyticIk, TheSolverReturnsTheTurnNearestTheSeed) {
   EXPECT_NEAR(r2.q()[5], 5.5 - 2 * M_PI, 1e-6);
 }
 
+// At the exact wrist singularity (q5 = 0: axes 4 and 6 in line) only q4 + q6 is fixed; with the
+// elbow nearly stretched most splits put frame 4's origin out of the elbow's reach, so the solver
+// must pick a split that reaches, whatever the seed's q6.
+TEST(UrAnalyticIk, TheExactWristSingularityIsSolvedFromAnySeed) {
+  const RobotModel& robot = ur5e();
+  auto solver = makeIkSolver("analytic", robot);
+  Rng rng(1);
+  VecX q(6);
+  q << 0.3, -1.0, 0.05, -0.6, 0.0, 1.0;
+  IkRequest req;
+  req.target = robot.fk(q);
+  req.max_solutions = 8;
+  for (const double seed6 : {1.0, 2.5, -2.0, 4.0}) {
+    req.seed = VecX::Zero(6);
+    req.seed[5] = seed6;
+    const IkResult r = solver->solve(req, rng);
+    ASSERT_TRUE(r.ok()) << "seed q6 " << seed6 << ": " << r.reason;
+    bool source_branch = false;  // a solution on the source's shoulder branch (its split may differ)
+    for (const auto& s : r.solutions) {
+      EXPECT_LT(poseDistance(robot.fk(s.q), req.target), 1e-9);
+      source_branch = source_branch || wrapDistance(s.q[0], q[0]) < 1e-6;
+    }
+    EXPECT_TRUE(source_branch) << "seed q6 " << seed6;
+  }
+}
+
 TEST(UrAnalyticIk, AChainOfAnotherShapeIsRefused) {
   const RobotModel panda = RobotModel::load("robots/panda/panda.yaml");
   EXPECT_THROW(UrAnalyticIk{panda}, InputError);
