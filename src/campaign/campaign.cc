@@ -30,6 +30,7 @@
 #include "core/error.h"
 #include "planning/planner.h"
 #include "sim/hardware.h"
+#include "sim/mjcf_robot.h"
 #include "sim/sim_world.h"
 
 namespace mm {
@@ -233,8 +234,9 @@ json fingerprintOf(const Experiment& e) {
     if (runOnlyKey(d.key)) continue;
     f[d.key] = e.params.getString(d.key);
   }
-  f["robot"] = "contents " + fileDigest(e.robot_path);
-  f["gripper"] = "contents " + fileDigest(loadRobotSpec(e.robot_path, e.gripper_path == "default" ? "" : e.gripper_path).gripper.file);
+  const RobotSpec robot = loadAnyRobotSpec(e.robot_path, e.gripper_path == "default" ? "" : e.gripper_path);
+  f["robot"] = "contents " + fileDigest(e.robot_path) + (robot.sidecar.empty() ? "" : " " + fileDigest(robot.sidecar));
+  f["gripper"] = "contents " + fileDigest(robot.gripper.file);
   f["scene"] = "contents " + fileDigest(e.scene_path);
   f["tree"] = "contents " + fileDigest(e.tree_path);
   return f;

@@ -7,6 +7,7 @@
 #include <sstream>
 #include <thread>
 
+#include "sim/mjcf_robot.h"
 #include "core/error.h"
 #include "sim/hardware.h"
 
@@ -22,7 +23,7 @@ void Experiment::declare(ConfigArchive& a) {
           "`minimanip merge` joins the shards' folders (--shard 1/4); 0/1: every trial");
   a.value("seed", seed, {0, 9.007e15}, "", "campaign seed; every random choice derives from (seed, trial, purpose)");
   a.choice("hardware", hardware, hardwareNames(), "mujoco: physics; mock: joints follow commands exactly");
-  a.path("robot", robot_path, "the arm: its YAML, or a URDF (.urdf, with its companion <file>.yaml when there is one). A path in a file is relative to the file; --set, to the working directory; the default, to the project root");
+  a.path("robot", robot_path, "the arm: its YAML, a URDF (.urdf) or an MJCF file (.xml), each with its companion <file>.yaml when there is one. A path in a file is relative to the file; --set, to the working directory; the default, to the project root");
   a.path("gripper", gripper_path, "gripper YAML mounted on the arm's flange; default: the arm's own (its YAML's gripper:); paths as for robot");
   a.path("scene", scene_path, "scene MJCF, the world only: the harness mounts the robot at its robot_mount site; paths as for robot");
   a.path("tree", tree_path, "behavior tree (BT.CPP v4 XML) run for each trial; paths as for robot. The default is the source's MiniManip tree");
@@ -58,7 +59,7 @@ void Experiment::declare(ConfigArchive& a) {
 }
 
 RobotModel loadExperimentRobot(const Experiment& e) {
-  RobotModel robot = RobotModel::load(e.robot_path, e.gripper_path == "default" ? "" : e.gripper_path);
+  RobotModel robot = loadAnyRobot(e.robot_path, e.gripper_path == "default" ? "" : e.gripper_path);
   const GripperSpec& g = robot.spec().gripper;
   if (e.task.grasp_force > g.max_force)
   {

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <thread>
 
+#include "sim/mjcf_robot.h"
 #include "campaign/stats.h"
 #include "core/error.h"
 #include "grasp/grasp.h"
@@ -206,7 +207,7 @@ std::string runIkBench(const IkBenchOptions& o) {
                                      ? std::string("robots/") + o.robot + "/" + o.robot + ".yaml"
                                      : o.robot;
   if (o.tip != "tcp" && o.tip != "flange") throw InputError("--tip " + o.tip, "expected tcp or flange");
-  const RobotModel loaded = RobotModel::load(robot_path);
+  const RobotModel loaded = loadAnyRobot(robot_path);
   const RobotModel robot = o.tip == "flange" ? loaded.withFlangeTip() : loaded;
   std::vector<std::string> names = o.solvers;
   if (names.empty())  // every solver; "auto" is one of them under another name

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <thread>
 
+#include "sim/mjcf_robot.h"
 #include "campaign/stats.h"
 #include "core/error.h"
 #include "grasp/grasp.h"
@@ -226,7 +227,7 @@ void PlanBenchOptions::declare(ConfigArchive& a) {
 
 std::string runPlanBench(const PlanBenchOptions& o) {
   seedOmplGlobally(static_cast<uint32_t>(mixSeed(o.seed, 99, 0)));
-  const RobotModel robot = RobotModel::load(o.robot);
+  const RobotModel robot = loadAnyRobot(o.robot);
   auto world = SimWorld::load(o.scene, robot);
   std::vector<std::string> planners = o.planners.empty() ? plannerNames() : o.planners;
   for (const auto& p : planners)

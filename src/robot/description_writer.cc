@@ -139,6 +139,9 @@ std::string writeMjcf(const RobotSpec& spec) {
   o << "<!-- " << spec.name << " with " << g.name << ": generated from their YAML files by gen_robot. Do not edit;"
     << " edit the YAML and regenerate. -->\n";
   o << "<mujoco model=\"" << spec.name << "\">\n";
+  // Angles (joint ranges) are in radians; a scene mounting this robot declares its own compiler
+  // (sim/scene_compose.cc converts the ranges when that scene works in degrees).
+  o << "  <compiler angle=\"radian\"/>\n\n";
   o << "  <default>\n    <default class=\"" << spec.name << "\">\n";
   o << "      <joint damping=\"" << num(spec.damping) << "\" armature=\"" << num(spec.armature) << "\"/>\n";
   o << "      <default class=\"" << spec.name << "_col\">\n";

@@ -23,8 +23,12 @@ Pose toPose(const urdf::Pose& p) {
 }  // namespace
 
 RobotModel RobotModel::load(const std::string& spec_yaml, const std::string& gripper_yaml) {
+  return fromSpec(loadRobotSpec(spec_yaml, gripper_yaml));
+}
+
+RobotModel RobotModel::fromSpec(RobotSpec spec) {
   RobotModel m;
-  m.spec_ = loadRobotSpec(spec_yaml, gripper_yaml);
+  m.spec_ = std::move(spec);
   const RobotSpec& s = m.spec_;
   // The kinematic tree as a URDF reader sees it: the URDF written from the arm and its gripper.
   const std::string urdf_path = s.file + " with " + s.gripper.file;

@@ -38,6 +38,8 @@ class RobotModel {
   /// Loads an arm's YAML with a gripper mounted on its flange (`gripper_yaml`, or the arm's
   /// default) and builds the kinematic tree from their URDF. Throws InputError on bad files.
   static RobotModel load(const std::string& spec_yaml, const std::string& gripper_yaml = "");
+  /// The model of a robot already read (e.g. from an MJCF file, by sim/mjcf_robot.h).
+  static RobotModel fromSpec(RobotSpec spec);
   /// Index into links() of the gripper's hand, and of its fingers (+y, -y).
   int handLink() const { return hand_link_; }
   int fingerLink(int k) const { return finger_link_[k]; }

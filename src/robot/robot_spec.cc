@@ -129,6 +129,8 @@ std::string RobotSpec::urdfPath() const { return (std::filesystem::path(director
 
 RobotSpec loadRobotSpec(const std::string& path, const std::string& gripper_yaml) {
   if (std::filesystem::path(path).extension() == ".urdf") return loadUrdfRobotSpec(path, gripper_yaml);
+  if (std::filesystem::path(path).extension() == ".xml")
+    throw InputError(path, "an MJCF robot is read through the simulator (sim/mjcf_robot.h: loadAnyRobot)");
   Reader r{path};
   const YAML::Node root = loadYaml(path, "a robot YAML describing an arm");
   RobotSpec s;

@@ -2,6 +2,8 @@
 
 #include <tinyxml2.h>
 
+#include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <functional>
@@ -128,8 +130,30 @@ std::string composeScene(const std::string& scene_xml, const RobotSpec& robot) {
     if (n != "compiler" && n != "option" && n != "size" && n != "visual" && n != "statistic" && n != "extension") break;
     before = c;
   }
+  // The robot's joint ranges are in radians; MuJoCo's default angle unit is the degree.
+  bool degrees = true;
+  for (const XMLElement* c = root->FirstChildElement("compiler"); c; c = c->NextSiblingElement("compiler"))
+    if (const char* unit = c->Attribute("angle")) degrees = std::strcmp(unit, "radian") != 0;
+  if (degrees) {
+    std::function<void(XMLElement*)> convert = [&](XMLElement* e) {
+      for (XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
+        const char* type = c->Attribute("type");
+        if (std::strcmp(c->Name(), "joint") == 0 && c->Attribute("range") && !(type && std::strcmp(type, "slide") == 0)) {
+          double lo = 0, hi = 0;
+          if (std::sscanf(c->Attribute("range"), "%lf %lf", &lo, &hi) == 2) {
+            char buf[80];
+            std::snprintf(buf, sizeof buf, "%.12g %.12g", lo * 180 / M_PI, hi * 180 / M_PI);
+            c->SetAttribute("range", buf);
+          }
+        }
+        convert(c);
+      }
+    };
+    convert(arm.RootElement());
+  }
   XMLNode* after = before;
   for (XMLElement* c = arm.RootElement()->FirstChildElement(); c; c = c->NextSiblingElement()) {
+    if (std::strcmp(c->Name(), "compiler") == 0) continue;  // the scene's compiler rules
     XMLNode* copy = c->DeepClone(&scene);
     after = after ? root->InsertAfterChild(after, copy) : root->InsertFirstChild(copy);
   }

@@ -34,13 +34,17 @@ void onMujocoError(const char* msg) {
 }
 void onMujocoWarning(const char* msg) { g_last_warning = msg; }
 
-void installHandlers() {
+}  // namespace
+
+void installMujocoHandlers() {
   static std::once_flag once;
   std::call_once(once, [] {
     mju_user_error = onMujocoError;
     mju_user_warning = onMujocoWarning;
   });
 }
+
+namespace {
 
 Pose poseOf(const mjtNum* pos, const mjtNum* mat) {
   Pose T = Pose::Identity();
@@ -136,7 +140,7 @@ SimWorld::SimWorld() : impl_(std::make_unique<Impl>()) {}
 SimWorld::~SimWorld() = default;
 
 std::unique_ptr<SimWorld> SimWorld::load(const std::string& scene_xml, const RobotModel& robot) {
-  installHandlers();
+  installMujocoHandlers();
   checkMjcf(scene_xml);
   std::unique_ptr<SimWorld> w(new SimWorld());
   Impl& I = *w->impl_;

@@ -30,6 +30,9 @@ struct ServoGains {
 
 /// MuJoCo's version, e.g. "2.2.2".
 std::string mujocoVersion();
+/// Installs our MuJoCo error and warning handlers (once per process; MuJoCo's defaults wait on
+/// stdin and write MUJOCO_LOG.TXT).
+void installMujocoHandlers();
 
 class SimWorld {
  public:

@@ -79,19 +79,23 @@ TEST(Campaign, Ur5eWithA2f85ClassGripperPicksAndPlaces) {
   EXPECT_THAT(cfg.str(), HasSubstr("robots/grippers/robotiq_2f85.yaml"));
 }
 
-// The Panda loaded from its URDF (with its companion YAML) runs the quickstart's first trials with
-// the outcomes of the Panda from its YAML: the same success, place errors within 0.2 mm.
-TEST(Campaign, ThePandaFromItsUrdfPlacesAsFromItsYaml) {
+// The Panda loaded from its URDF or its MJCF (each with its companion YAML) runs the quickstart's
+// first trials with the outcomes of the Panda from its YAML: the same success, place errors within
+// 0.2 mm.
+TEST(Campaign, ThePandaFromItsUrdfOrMjcfPlacesAsFromItsYaml) {
   TempDir d;
   const std::string common = " --trials 4 --set progress=none --out ";
   ASSERT_EQ(runMinimanip("run experiments/quickstart.yaml" + common + (d.path() / "yaml").string()).code, 0);
-  const RunResult r = runMinimanip("run experiments/quickstart.yaml --set robot=robots/panda/panda.urdf" + common + (d.path() / "urdf").string());
-  ASSERT_EQ(r.code, 0) << r.out;
-  const auto a = readTrials(d.path() / "yaml"), b = readTrials(d.path() / "urdf");
-  ASSERT_EQ(a.size(), b.size());
-  for (size_t i = 0; i < a.size(); ++i) {
-    EXPECT_EQ(a[i]["success"], b[i]["success"]) << i;
-    EXPECT_NEAR(a[i]["place_position_error"].get<double>(), b[i]["place_position_error"].get<double>(), 2e-4) << i;
+  const auto a = readTrials(d.path() / "yaml");
+  for (const std::string file : {"panda.urdf", "panda.xml"}) {
+    const RunResult r = runMinimanip("run experiments/quickstart.yaml --set robot=robots/panda/" + file + common + (d.path() / file).string());
+    ASSERT_EQ(r.code, 0) << r.out;
+    const auto b = readTrials(d.path() / file);
+    ASSERT_EQ(a.size(), b.size());
+    for (size_t i = 0; i < a.size(); ++i) {
+      EXPECT_EQ(a[i]["success"], b[i]["success"]) << file << " " << i;
+      EXPECT_NEAR(a[i]["place_position_error"].get<double>(), b[i]["place_position_error"].get<double>(), 2e-4) << file << " " << i;
+    }
   }
 }
 

@@ -13,6 +13,7 @@
 #include "core/error.h"
 #include "core/rng.h"
 #include "robot/description_writer.h"
+#include "sim/mjcf_robot.h"
 
 namespace mm {
 namespace {
@@ -172,7 +173,8 @@ TEST_F(BadRobotFiles, UrdfCycleIsRejected) {
   // panda_link2 made the child of panda_link4 too: two parents, a cycle.
   replaceIn("panda.urdf", "<joint name=\"panda_joint5\" type=\"revolute\">\n    <parent link=\"panda_link4\"/>\n    <child link=\"panda_link5\"/>",
             "<joint name=\"panda_joint5\" type=\"revolute\">\n    <parent link=\"panda_link4\"/>\n    <child link=\"panda_link2\"/>");
-  EXPECT_THAT(loadError("panda.urdf"), ::testing::HasSubstr("panda.urdf: not a valid URDF"));
+  EXPECT_THAT(loadError("panda.urdf"), ::testing::MatchesRegex(".*panda\\.urdf:[0-9]+: not a valid URDF robot description: link "
+                                                                 "'panda_link2' is the child of two joints, 'panda_joint2' and 'panda_joint5'.*"));
 }
 
 TEST_F(BadRobotFiles, UrdfBadLimitsAreRejected) {
@@ -188,6 +190,26 @@ TEST_F(BadRobotFiles, UrdfMeshesDaeAndUnresolvedPackagesAreRejected) {
   EXPECT_THAT(loadError("panda.urdf"), ::testing::HasSubstr("panda.urdf: link 'panda_link0': cannot resolve 'package://franka_description/meshes/link0.stl'"));
   replaceIn("panda.urdf", "package://franka_description/meshes/link0.stl", "meshes/none.stl");
   EXPECT_THAT(loadError("panda.urdf"), ::testing::HasSubstr("cannot read mesh"));
+}
+
+TEST_F(BadRobotFiles, MjcfWithoutVelocitiesOrWithTwoHingesInABodyIsRejected) {
+  std::filesystem::copy_file("robots/panda/panda.xml", dir_ / "panda.xml");
+  std::filesystem::copy_file("robots/panda/panda.xml.yaml", dir_ / "panda.xml.yaml");
+  replaceIn("panda.xml.yaml", "gripper: ../grippers/panda_hand.yaml", "gripper: grippers/panda_hand.yaml");
+  auto mjcfError = [&] {
+    try {
+      loadAnyRobot((dir_ / "panda.xml").string());
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(mjcfError(), "");
+  replaceIn("panda.xml.yaml", "velocity: [", "# velocity: [");
+  EXPECT_THAT(mjcfError(), ::testing::HasSubstr("MJCF has no joint velocity limits: list them as velocity in"));
+  replaceIn("panda.xml.yaml", "# velocity: [", "velocity: [");
+  replaceIn("panda.xml", "<joint name=\"panda_joint3\"", "<joint name=\"panda_joint3b\" axis=\"1 0 0\"/>\n<joint name=\"panda_joint3\"");
+  EXPECT_THAT(mjcfError(), ::testing::HasSubstr("body 'panda_link3' on the arm's chain must hold one hinge joint"));
 }
 
 TEST_F(BadRobotFiles, UrdfCompanionUnknownKeyAndMissingGripper) {
@@ -237,7 +259,8 @@ TEST(RobotNames, NoRobotLinkOrJointNameAppearsInTheSource) {
   std::set<std::string> names;
   std::vector<std::string> robot_files, gripper_files;
   for (const auto& e : fs::recursive_directory_iterator("robots")) {
-    if (e.path().extension() != ".yaml" || e.path().stem().extension() == ".urdf") continue;  // not a URDF's companion
+    const std::string inner = e.path().stem().extension().string();
+    if (e.path().extension() != ".yaml" || inner == ".urdf" || inner == ".xml") continue;  // not a companion YAML
     (e.path().parent_path().filename() == "grippers" ? gripper_files : robot_files).push_back(e.path().string());
   }
   ASSERT_GE(robot_files.size(), 2u);
@@ -270,11 +293,16 @@ TEST(RobotNames, NoRobotLinkOrJointNameAppearsInTheSource) {
 namespace mm {
 namespace {
 
-// The Panda from its URDF (panda.urdf + panda.urdf.yaml) is the Panda from its YAML: the same
-// chain, limits, home and analytic IK; FK equal within 1e-9 over 200 random configurations.
-TEST(RobotFromUrdf, ThePandaFromItsUrdfIsThePandaFromItsYaml) {
+class PandaFrom : public ::testing::TestWithParam<std::string> {};
+INSTANTIATE_TEST_SUITE_P(RobotFromFile, PandaFrom, ::testing::Values("robots/panda/panda.urdf", "robots/panda/panda.xml"),
+                         [](const auto& info) { return std::filesystem::path(info.param).extension().string().substr(1); });
+
+// The Panda from its URDF (panda.urdf + panda.urdf.yaml) or its MJCF (panda.xml + panda.xml.yaml)
+// is the Panda from its YAML: the same chain, limits, home and analytic IK; FK equal within 1e-9
+// over 200 random configurations.
+TEST_P(PandaFrom, ItIsThePandaFromItsYaml) {
   const RobotModel a = RobotModel::load("robots/panda/panda.yaml");
-  const RobotModel b = RobotModel::load("robots/panda/panda.urdf");
+  const RobotModel b = loadAnyRobot(GetParam());
   ASSERT_EQ(a.dof(), b.dof());
   EXPECT_EQ(a.jointNames(), b.jointNames());
   for (int i = 0; i < a.dof(); ++i) {

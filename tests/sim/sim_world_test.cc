@@ -9,6 +9,10 @@
 #include "planning/trajectory.h"
 #include "sim/controllers.h"
 #include "sim/hardware.h"
+#include "sim/scene_compose.h"
+
+#include <fstream>
+#include <sstream>
 
 namespace mm {
 namespace {
@@ -172,6 +176,30 @@ TEST(SimWorld, ExportsTheStaticSceneForThePlanner) {
   for (const auto& o : obstacles) names.push_back(o.name);
   EXPECT_THAT(names, ::testing::IsSupersetOf({"table", "bin_floor", "bin_wall_xp", "tray_floor", "tray_wall_yn"}));
   EXPECT_THAT(names, ::testing::Not(::testing::Contains("floor")));  // the ground plane is out of reach
+}
+
+}  // namespace
+}  // namespace mm
+
+namespace mm {
+namespace {
+
+// A scene in MuJoCo's default angle unit (degrees) gets the robot's joint ranges in degrees; a
+// scene in radians, as written. The robot's own <compiler> is left out (the scene's rules).
+TEST(SceneCompose, JointRangesFollowTheScenesAngleUnit) {
+  const RobotModel& robot = RobotModel::load("robots/panda/panda.yaml");
+  const std::string radians = composeScene("scenes/bin_table.xml", robot.spec());
+  EXPECT_THAT(radians, ::testing::HasSubstr("range=\"-1.7628 1.7628\""));
+  std::stringstream s;
+  s << std::ifstream("scenes/bin_table.xml").rdbuf();
+  std::string xml = s.str();
+  xml.replace(xml.find("angle=\"radian\""), 14, "");
+  const std::string path = ::testing::TempDir() + "/degree_scene.xml";
+  std::ofstream(path) << xml;
+  const std::string degrees = composeScene(path, robot.spec());
+  EXPECT_THAT(degrees, ::testing::HasSubstr("range=\"-101.001"));
+  EXPECT_THAT(degrees, ::testing::HasSubstr("range=\"0 0.04\""));  // a finger's slide: metres
+  EXPECT_EQ(degrees.find("<compiler angle=\"radian\"/>"), std::string::npos);
 }
 
 }  // namespace

@@ -1,0 +1,225 @@
+#include "sim/mjcf_robot.h"
+
+#include <mujoco/mujoco.h>
+
+#include <filesystem>
+#include <functional>
+
+#include "core/error.h"
+#include "robot/arm_builder.h"
+#include "sim/mjcf_check.h"
+#include "sim/sim_world.h"
+
+namespace mm {
+namespace {
+
+Pose bodyPose(const mjModel* m, int b) {
+  const mjtNum* p = m->body_pos + 3 * b;
+  const mjtNum* q = m->body_quat + 4 * b;
+  return makePose(Vec3(p[0], p[1], p[2]), Quat(q[0], q[1], q[2], q[3]).normalized());
+}
+
+std::string bodyName(const mjModel* m, int b) {
+  const char* n = mj_id2name(m, mjOBJ_BODY, b);
+  return n ? n : "body " + std::to_string(b);
+}
+
+RobotSpec readMjcfArm(const std::string& path, const mjModel* m, const std::string& gripper_yaml) {
+  const arm_builder::Companion comp = arm_builder::loadCompanion(path, "MJCF", {"velocity", "effort"});
+  const YAML::Node& y = comp.y;
+  RobotSpec s;
+  s.file = path;
+  if (std::filesystem::exists(comp.path)) s.sidecar = comp.path;
+  s.name = y["name"] ? comp.r.text(y, "name") : std::filesystem::path(path).stem().string();
+  auto bodyId = [&](const char* key, int fallback) {
+    if (!y[key]) return fallback;
+    const std::string n = comp.r.text(y, key);
+    const int b = mj_name2id(m, mjOBJ_BODY, n.c_str());
+    if (b < 0) throw InputError(comp.r.at(y[key]), "body '" + n + "' is not in " + path);
+    return b;
+  };
+  auto children = [&](int b) {
+    std::vector<int> c;
+    for (int k = 1; k < m->nbody; ++k)
+      if (k != b && m->body_parentid[k] == b) c.push_back(k);
+    return c;
+  };
+  auto hasHinge = [&](int b) { return m->body_jntnum[b] > 0; };
+  // The base: named, or the world's first child body.
+  const int base = bodyId("base_link", m->nbody > 1 ? 1 : -1);
+  if (base < 1) throw InputError(path, "expected a body under <worldbody>");
+  s.base_link = bodyName(m, base);
+  // The flange: named, or the end of the only chain of bodies with a joint below the base.
+  std::function<bool(int)> movesBelow = [&](int b) {
+    for (int c : children(b))
+      if (hasHinge(c) || movesBelow(c)) return true;
+    return false;
+  };
+  int flange = base;
+  if (y["flange_link"]) {
+    flange = bodyId("flange_link", base);
+  } else {
+    for (;;) {
+      int next = -1, moving = 0;
+      for (int c : children(flange))
+        if (hasHinge(c) || movesBelow(c)) ++moving, next = c;
+      if (moving == 0) break;
+      if (moving > 1)
+        throw InputError(path, "body '" + bodyName(m, flange) + "' has several moving children: name the arm's last body as flange_link in " + comp.path);
+      flange = next;
+    }
+  }
+  std::vector<int> chain;  // bodies after the base, base to flange
+  for (int b = flange; b != base; b = m->body_parentid[b]) {
+    if (b <= 0) throw InputError(path, "body '" + bodyName(m, flange) + "' is not below base body '" + s.base_link + "'");
+    chain.push_back(b);
+  }
+  std::reverse(chain.begin(), chain.end());
+  auto onChain = [&](int b) { return std::find(chain.begin(), chain.end(), b) != chain.end(); };
+
+  // A body's collision geoms and inertia, in the frame T places it in.
+  auto collect = [&](int b, const Pose& T, LinkSpec& out, arm_builder::Inertia& inertia) {
+    arm_builder::Inertia in;
+    in.mass = m->body_mass[b];
+    in.com = Vec3(m->body_ipos[3 * b], m->body_ipos[3 * b + 1], m->body_ipos[3 * b + 2]);
+    const mjtNum* iq = m->body_iquat + 4 * b;
+    const Mat3 R = Quat(iq[0], iq[1], iq[2], iq[3]).normalized().toRotationMatrix();
+    in.I = R * Vec3(m->body_inertia[3 * b], m->body_inertia[3 * b + 1], m->body_inertia[3 * b + 2]).asDiagonal() * R.transpose();
+    arm_builder::addInertia(inertia, in, T);
+    for (int g = m->body_geomadr[b]; g >= 0 && g < m->body_geomadr[b] + m->body_geomnum[b]; ++g) {
+      if (m->geom_contype[g] == 0 && m->geom_conaffinity[g] == 0) continue;  // visual only
+      const mjtNum* gp = m->geom_pos + 3 * g;
+      const mjtNum* gq = m->geom_quat + 4 * g;
+      const Pose Tg = T * makePose(Vec3(gp[0], gp[1], gp[2]), Quat(gq[0], gq[1], gq[2], gq[3]).normalized());
+      const mjtNum* size = m->geom_size + 3 * g;
+      ShapeSpec sh;
+      switch (m->geom_type[g]) {
+        case mjGEOM_SPHERE:
+          sh.type = ShapeSpec::Type::kSphere;
+          sh.pos = arm_builder::arr(Tg.translation());
+          sh.radius = size[0];
+          break;
+        case mjGEOM_CAPSULE:
+        case mjGEOM_CYLINDER: {
+          sh.type = m->geom_type[g] == mjGEOM_CAPSULE ? ShapeSpec::Type::kCapsule : ShapeSpec::Type::kCylinder;
+          const Vec3 half = Tg.linear().col(2) * size[1];
+          sh.from = arm_builder::arr(Tg.translation() - half);
+          sh.to = arm_builder::arr(Tg.translation() + half);
+          sh.radius = size[0];
+          break;
+        }
+        case mjGEOM_BOX: {
+          sh.type = ShapeSpec::Type::kBox;
+          sh.pos = arm_builder::arr(Tg.translation());
+          sh.half = {size[0], size[1], size[2]};
+          const Quat q(Tg.linear());
+          sh.quat = {q.w(), q.x(), q.y(), q.z()};
+          break;
+        }
+        default:
+          throw InputError(path, "body '" + bodyName(m, b) + "': collision geom " + std::to_string(g) +
+                                     " is not a sphere, capsule, cylinder or box (meshes are not supported yet)");
+      }
+      out.shapes.push_back(sh);
+    }
+  };
+  std::function<void(int, const Pose&, LinkSpec&, arm_builder::Inertia&)> gather = [&](int b, const Pose& T, LinkSpec& out,
+                                                                                        arm_builder::Inertia& inertia) {
+    collect(b, T, out, inertia);
+    if (b == flange) return;  // what hangs below the flange is the gripper's place
+    for (int c : children(b)) {
+      if (onChain(c)) continue;
+      if (hasHinge(c) || movesBelow(c))
+        throw InputError(path, "body '" + bodyName(m, c) + "' moves but is not on the arm's chain " + s.base_link + " -> " +
+                                   bodyName(m, flange) + " (name the arm's bodies with base_link and flange_link in " + comp.path + ")");
+      gather(c, T * bodyPose(m, c), out, inertia);
+    }
+  };
+
+  LinkSpec current{s.base_link};
+  arm_builder::Inertia current_inertia;
+  gather(base, Pose::Identity(), current, current_inertia);
+  Pose T_acc = Pose::Identity();
+  std::vector<int> arm_joints;
+  for (int b : chain) {
+    const Pose T_origin = T_acc * bodyPose(m, b);
+    if (m->body_jntnum[b] == 0) {
+      gather(b, T_origin, current, current_inertia);
+      T_acc = T_origin;
+      continue;
+    }
+    const int j = m->body_jntadr[b];
+    if (m->body_jntnum[b] != 1 || m->jnt_type[j] != mjJNT_HINGE)
+      throw InputError(path, "body '" + bodyName(m, b) + "' on the arm's chain must hold one hinge joint (or none)");
+    const mjtNum* anchor = m->jnt_pos + 3 * j;
+    if (Vec3(anchor[0], anchor[1], anchor[2]).norm() > 1e-9)
+      throw InputError(path, "joint '" + std::string(mj_id2name(m, mjOBJ_JOINT, j) ? mj_id2name(m, mjOBJ_JOINT, j) : "?") +
+                                 "': its anchor is away from its body's origin (expected pos 0 0 0)");
+    arm_builder::addLink(s, current, current_inertia, path);
+    JointSpec js;
+    js.name = mj_id2name(m, mjOBJ_JOINT, j) ? mj_id2name(m, mjOBJ_JOINT, j) : "";
+    if (js.name.empty()) throw InputError(path, "the joint of body '" + bodyName(m, b) + "' needs a name");
+    js.xyz = arm_builder::arr(T_origin.translation());
+    js.rpy = arm_builder::rpyOf(T_origin.linear());
+    const mjtNum* ax = m->jnt_axis + 3 * j;
+    js.axis = arm_builder::arr(Vec3(ax[0], ax[1], ax[2]).normalized());
+    if (m->jnt_limited[j]) js.lower = m->jnt_range[2 * j], js.upper = m->jnt_range[2 * j + 1];
+    else js.lower = -2 * M_PI, js.upper = 2 * M_PI;
+    if (!(js.lower < js.upper)) throw InputError(path, "joint '" + js.name + "': expected range lower < upper");
+    // The torque limit: the joint's motor (ctrlrange x gear, or forcerange), else the companion's.
+    for (int a = 0; a < m->nu; ++a) {
+      if (m->actuator_trntype[a] != mjTRN_JOINT || m->actuator_trnid[2 * a] != j) continue;
+      const double gear = std::abs(m->actuator_gear[6 * a]);
+      if (m->actuator_forcelimited[a])
+        js.effort = std::max(std::abs(m->actuator_forcerange[2 * a]), std::abs(m->actuator_forcerange[2 * a + 1]));
+      else if (m->actuator_ctrllimited[a])
+        js.effort = gear * std::max(std::abs(m->actuator_ctrlrange[2 * a]), std::abs(m->actuator_ctrlrange[2 * a + 1]));
+    }
+    arm_joints.push_back(j);
+    arm_builder::recognizeDh(js);
+    s.joints.push_back(js);
+    current = LinkSpec{bodyName(m, b)};
+    current_inertia = arm_builder::Inertia{};
+    T_acc = Pose::Identity();
+    gather(b, Pose::Identity(), current, current_inertia);
+  }
+  arm_builder::addLink(s, current, current_inertia, path);
+  // What MJCF does not carry: velocity limits (required), torque limits where no motor says.
+  const size_t n = s.joints.size();
+  if (!y["velocity"]) throw InputError(path, "MJCF has no joint velocity limits: list them as velocity in " + comp.path);
+  const auto vel = comp.perJoint("velocity", n, 0.0, true);
+  const auto eff = comp.perJoint("effort", n, 0.0, true);
+  for (size_t i = 0; i < n; ++i) {
+    s.joints[i].velocity = vel[i];
+    if (y["effort"]) s.joints[i].effort = eff[i];
+    if (!(s.joints[i].effort > 0))
+      throw InputError(path, "joint '" + s.joints[i].name + "': no torque limit (a motor with ctrlrange or forcerange, or effort in " + comp.path + ")");
+  }
+  arm_builder::finishArm(s, comp, T_acc, gripper_yaml, path);
+  return s;
+}
+
+}  // namespace
+
+RobotSpec loadAnyRobotSpec(const std::string& path, const std::string& gripper_yaml) {
+  if (std::filesystem::path(path).extension() != ".xml") return loadRobotSpec(path, gripper_yaml);
+  installMujocoHandlers();
+  checkMjcf(path);
+  char err[1024] = "";
+  mjModel* m = mj_loadXML(path.c_str(), nullptr, err, sizeof err);
+  if (!m) throw InputError(path, std::string("MuJoCo rejected the robot: ") + err);
+  try {
+    RobotSpec s = readMjcfArm(path, m, gripper_yaml);
+    mj_deleteModel(m);
+    return s;
+  } catch (...) {
+    mj_deleteModel(m);
+    throw;
+  }
+}
+
+RobotModel loadAnyRobot(const std::string& path, const std::string& gripper_yaml) {
+  return RobotModel::fromSpec(loadAnyRobotSpec(path, gripper_yaml));
+}
+
+}  // namespace mm
