@@ -72,7 +72,7 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
     const auto t5 = Clock::now();
     sim_replay += world->replayControls(log);
     wall_replay += secs(t5, Clock::now());
-    steps += static_cast<long>(log.size() / 9);
+    steps += static_cast<long>(log.size() / world->controlsPerStep());
   }
   std::filesystem::remove_all(logs);
   const double wall_total = secs(t_all, Clock::now());

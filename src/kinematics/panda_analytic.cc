@@ -46,7 +46,9 @@ PandaAnalyticIk::PandaAnalyticIk(const RobotModel& robot) {
                      near(j[1].alpha, -h) && near(j[2].a, 0) && near(j[2].alpha, h) && near(j[3].d, 0) &&
                      near(j[3].alpha, h) && near(j[4].alpha, -h) && near(j[5].a, 0) && near(j[5].d, 0) &&
                      near(j[5].alpha, h) && near(j[6].d, 0) && near(j[6].alpha, h);
-  if (!shape)
+  bool dh = true;
+  for (int k = 0; k < robot.dof(); ++k) dh = dh && j[k].dh && robot.jointAxis(k).isApprox(Vec3::UnitZ(), 1e-12);
+  if (!shape || !dh)
     throw InputError(robot.spec().file, "the analytic IK needs a Panda-shaped modified DH chain (7 joints, the Panda's alphas and zero offsets)");
   d1_ = j[0].d, d3_ = j[2].d, a4_ = j[3].a, a5_ = j[4].a, d5_ = j[4].d, a7_ = j[6].a, alpha7_ = j[6].alpha;
   T_tcp_inv_ = robot.T_flange_tcp().inverse();

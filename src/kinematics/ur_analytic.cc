@@ -28,6 +28,7 @@ UrAnalyticIk::UrAnalyticIk(const RobotModel& robot) {
                      near(j[4].a, 0) && near(j[4].alpha, h) && near(j[5].a, 0) && near(j[5].alpha, -h) &&
                      !near(j[2].a, 0) && !near(j[3].a, 0);
   bool z_axes = true;
+  for (const JointSpec& js : j) z_axes = z_axes && js.dh;  // a, d, alpha mean something only in DH form
   for (int k = 0; k < robot.dof() && k < 6; ++k) z_axes = z_axes && robot.jointAxis(k).isApprox(Vec3::UnitZ(), 1e-12);
   if (!shape || !z_axes)
     throw InputError(robot.spec().file,

@@ -50,7 +50,7 @@ CartesianPath planCartesianLine(const RobotModel& robot, CollisionChecker& check
 }
 
 JointTrajectory cartesianTrajectory(const RobotModel& robot, const CartesianPath& path, const IkFunction& ik,
-                                    const LimitScaling& scale, const CartesianOptions& o, double dt) {
+                                    const LimitScaling& scale, const CartesianOptions& o, double dt, const VecX* q_from) {
   MM_DEMAND(path.ok && path.waypoints.size() >= 2);
   const Vec3 p0 = path.T_start.translation(), p1 = path.T_goal.translation();
   const Quat q0(path.T_start.linear()), q1(path.T_goal.linear());
@@ -68,7 +68,7 @@ JointTrajectory cartesianTrajectory(const RobotModel& robot, const CartesianPath
     const int N = std::max(2, static_cast<int>(std::ceil(T / dt - 1e-9)) + 1);
     const double stretch = T / ((N - 1) * dt);  // whole periods: slightly slower, never faster
     t.q.resize(robot.dof(), N);
-    t.q.col(0) = path.waypoints.front();
+    t.q.col(0) = q_from ? *q_from : path.waypoints.front();
     VecX q = t.q.col(0), next;
     bool ok = true;
     for (int k = 1; k < N && ok; ++k) {

@@ -41,8 +41,11 @@ CartesianPath planCartesianLine(const RobotModel& robot, CollisionChecker& check
 /// One trapezoid in the TCP's distance along the line (within the TCP speed and acceleration
 /// limits), sampled every `dt` with IK from the previous sample, so the joint motion is smooth;
 /// then checked against the scaled joint limits and slowed down until it holds. Empty when IK
-/// fails along the way (the path's waypoints already proved the line feasible).
+/// fails along the way (the path's waypoints already proved the line feasible). It starts at
+/// `q_from` when given (where the previous motion left the arm: the same TCP pose as the path's
+/// start, perhaps elsewhere in a redundant arm's null space), else at the path's first waypoint.
 JointTrajectory cartesianTrajectory(const RobotModel& robot, const CartesianPath& path, const IkFunction& ik,
-                                    const LimitScaling& scale, const CartesianOptions& options, double dt);
+                                    const LimitScaling& scale, const CartesianOptions& options, double dt,
+                                    const VecX* q_from = nullptr);
 
 }  // namespace mm

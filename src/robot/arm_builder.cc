@@ -61,6 +61,8 @@ std::array<double, 3> arr(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
 std::array<double, 3> rpyOf(const Mat3& R) {
   const double pitch = std::asin(-std::clamp(R(2, 0), -1.0, 1.0));
+  // At pitch +-pi/2 roll and yaw turn about one axis: roll 0, all of it in yaw.
+  if (std::abs(R(2, 0)) > 1 - 1e-12) return {0.0, pitch, std::atan2(-R(0, 1), R(1, 1))};
   return {std::atan2(R(2, 1), R(2, 2)), pitch, std::atan2(R(1, 0), R(0, 0))};
 }
 

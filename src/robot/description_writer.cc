@@ -227,14 +227,16 @@ std::string rpyForZ(const Vector3d& axis) {
   const Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(Vector3d::UnitZ(), axis);
   const Matrix3d R = q.toRotationMatrix();
   const double pitch = std::asin(-std::clamp(R(2, 0), -1.0, 1.0));
-  const double roll = std::atan2(R(2, 1), R(2, 2));
-  const double yaw = std::atan2(R(1, 0), R(0, 0));
+  const bool lock = std::abs(R(2, 0)) > 1 - 1e-12;  // roll and yaw about one axis: all in yaw
+  const double roll = lock ? 0.0 : std::atan2(R(2, 1), R(2, 2));
+  const double yaw = lock ? std::atan2(-R(0, 1), R(1, 1)) : std::atan2(R(1, 0), R(0, 0));
   return num(roll) + " " + num(pitch) + " " + num(yaw);
 }
 
 std::string rpyOfQuat(const std::array<double, 4>& q) {
   const Matrix3d R = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
   const double pitch = std::asin(-std::clamp(R(2, 0), -1.0, 1.0));
+  if (std::abs(R(2, 0)) > 1 - 1e-12) return "0 " + num(pitch) + " " + num(std::atan2(-R(0, 1), R(1, 1)));  // gimbal lock
   return num(std::atan2(R(2, 1), R(2, 2))) + " " + num(pitch) + " " + num(std::atan2(R(1, 0), R(0, 0)));
 }
 

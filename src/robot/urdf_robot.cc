@@ -62,13 +62,33 @@ std::shared_ptr<urdf::ModelInterface> parseUrdfText(const std::string& text, con
                                                                              std::string(link) + "' is the child of two joints, '" +
                                                                              it->second + "' and '" + name + "' (not a tree)");
     }
+    // Every link one parent at most, yet a loop apart from the root: walking up never ends.
+    std::map<std::string, std::string> parent_link;
+    for (const tinyxml2::XMLElement* j = robot->FirstChildElement("joint"); j; j = j->NextSiblingElement("joint")) {
+      const tinyxml2::XMLElement *c = j->FirstChildElement("child"), *p = j->FirstChildElement("parent");
+      if (c && p && c->Attribute("link") && p->Attribute("link")) parent_link[c->Attribute("link")] = p->Attribute("link");
+    }
+    for (const auto& [start, unused] : parent_link) {
+      std::string l = start;
+      for (size_t steps = 0; parent_link.count(l); ++steps) {
+        l = parent_link.at(l);
+        if (steps > parent_link.size())
+          throw InputError(origin, "not a valid URDF robot description: the joints form a cycle through link '" + start + "'");
+      }
+    }
   }
   static std::mutex mutex;  // console_bridge's handler is global
   std::lock_guard<std::mutex> lock(mutex);
   CaptureHandler handler;
+  struct Restore {  // even if urdfdom throws
+    ~Restore() { console_bridge::restorePreviousOutputHandler(); }
+  };
   console_bridge::useOutputHandler(&handler);
-  auto model = urdf::parseURDF(text);
-  console_bridge::restorePreviousOutputHandler();
+  std::shared_ptr<urdf::ModelInterface> model;
+  {
+    Restore restore;
+    model = urdf::parseURDF(text);
+  }
   if (!model)
     throw InputError(origin, "not a valid URDF robot description: " +
                                  (handler.messages.empty() ? std::string("urdfdom rejected it") : handler.messages));
@@ -101,12 +121,20 @@ RobotSpec loadUrdfRobotSpec(const std::string& urdf_path, const std::string& gri
   if (y["flange_link"]) {
     flange_name = r.text(y, "flange_link");
   } else {
+    // Through fixed joints too: follow the one child whose subtree moves.
+    std::function<bool(const urdf::LinkConstSharedPtr&)> movesBelow = [&](const urdf::LinkConstSharedPtr& l) {
+      for (const auto& j : l->child_joints)
+        if (j->type != urdf::Joint::FIXED || movesBelow(model->getLink(j->child_link_name))) return true;
+      return false;
+    };
     auto l = base;
     for (;;) {
       urdf::LinkConstSharedPtr next;
       int moving = 0;
-      for (const auto& j : l->child_joints)
-        if (j->type == urdf::Joint::REVOLUTE || j->type == urdf::Joint::CONTINUOUS) ++moving, next = model->getLink(j->child_link_name);
+      for (const auto& j : l->child_joints) {
+        const auto child = model->getLink(j->child_link_name);
+        if (j->type != urdf::Joint::FIXED || movesBelow(child)) ++moving, next = child;
+      }
       if (moving == 0) break;
       if (moving > 1)
         throw InputError(urdf_path, "link '" + l->name + "' has several moving children: name the arm's last link as flange_link in " + side);

@@ -166,15 +166,23 @@ RobotSpec readMjcfArm(const std::string& path, const mjModel* m, const std::stri
     if (m->jnt_limited[j]) js.lower = m->jnt_range[2 * j], js.upper = m->jnt_range[2 * j + 1];
     else js.lower = -2 * M_PI, js.upper = 2 * M_PI;
     if (!(js.lower < js.upper)) throw InputError(path, "joint '" + js.name + "': expected range lower < upper");
-    // The torque limit: the joint's motor (ctrlrange x gear, or forcerange), else the companion's.
+    if (std::abs(m->qpos0[m->jnt_qposadr[j]]) > 1e-12)
+      throw InputError(path, "joint '" + js.name + "': a reference position (ref) other than 0 is not supported");
+    // The torque limit: the joint's one motor — |gear| x forcerange, or |gear| x ctrlrange for a
+    // plain motor (fixed unit gain, no bias) — else the companion's effort.
+    int motors = 0;
     for (int a = 0; a < m->nu; ++a) {
       if (m->actuator_trntype[a] != mjTRN_JOINT || m->actuator_trnid[2 * a] != j) continue;
+      ++motors;
       const double gear = std::abs(m->actuator_gear[6 * a]);
+      const bool plain = m->actuator_gaintype[a] == mjGAIN_FIXED && m->actuator_gainprm[mjNGAIN * a] == 1 &&
+                         m->actuator_biastype[a] == mjBIAS_NONE;
       if (m->actuator_forcelimited[a])
-        js.effort = std::max(std::abs(m->actuator_forcerange[2 * a]), std::abs(m->actuator_forcerange[2 * a + 1]));
-      else if (m->actuator_ctrllimited[a])
+        js.effort = gear * std::max(std::abs(m->actuator_forcerange[2 * a]), std::abs(m->actuator_forcerange[2 * a + 1]));
+      else if (m->actuator_ctrllimited[a] && plain)
         js.effort = gear * std::max(std::abs(m->actuator_ctrlrange[2 * a]), std::abs(m->actuator_ctrlrange[2 * a + 1]));
     }
+    if (motors > 1) js.effort = 0;  // several actuators: the companion says
     arm_joints.push_back(j);
     arm_builder::recognizeDh(js);
     s.joints.push_back(js);

@@ -2,14 +2,18 @@
 
 #include <tinyxml2.h>
 
+#include <Eigen/Geometry>
+
 #include <cmath>
 #include <cstdio>
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 #include <functional>
 #include <set>
 
 #include "core/error.h"
+#include "core/pose.h"
 #include "robot/description_writer.h"
 
 namespace mm {
@@ -99,26 +103,90 @@ std::string composeScene(const std::string& scene_xml, const RobotSpec& robot) {
   collectNames(root, "body", bodies);
 
   // The mount: a site directly in <worldbody>; its pose is the base's.
-  XMLElement* world = root->FirstChildElement("worldbody");
-  if (!world) throw InputError(scene_xml, "expected a <worldbody>");
+  std::vector<XMLElement*> worlds;  // an <include> may add <worldbody> sections
+  for (XMLElement* w = root->FirstChildElement("worldbody"); w; w = w->NextSiblingElement("worldbody")) worlds.push_back(w);
+  if (worlds.empty()) throw InputError(scene_xml, "expected a <worldbody>");
+  bool degrees = true;  // MuJoCo's default angle unit
+  bool xyz_euler = true;  // MuJoCo's default euler sequence
+  for (const XMLElement* c = root->FirstChildElement("compiler"); c; c = c->NextSiblingElement("compiler")) {
+    if (const char* unit = c->Attribute("angle")) degrees = std::strcmp(unit, "radian") != 0;
+    if (const char* seq = c->Attribute("eulerseq")) xyz_euler = std::strcmp(seq, "xyz") == 0 || std::strcmp(seq, "XYZ") == 0;
+  }
+  Vec3 mount_p = Vec3::Zero();
+  double mount_yaw = 0;
   std::vector<const XMLElement*> sites;
   collectNames(root, "site", sites);
   for (const XMLElement* s : sites) {
     if (std::strcmp(s->Attribute("name"), "robot_mount") != 0) continue;
-    if (s->Parent() != world) throw InputError(at(scene_xml, s), "site 'robot_mount' must be a direct child of <worldbody>");
-    for (const char* a : {"pos", "quat", "euler", "axisangle", "xyaxes", "zaxis"}) {
-      const char* v = s->Attribute(a);
-      if (!v) continue;
-      // The planner, perception and the task share one frame, the world's; a base elsewhere would
-      // need the mount transform threaded through all of them, which is not done yet.
-      double x[4] = {0, 0, 0, 0};
-      const int n = std::sscanf(v, "%lf %lf %lf %lf", &x[0], &x[1], &x[2], &x[3]);
-      const bool identity = (std::strcmp(a, "pos") == 0 && n == 3 && x[0] == 0 && x[1] == 0 && x[2] == 0) ||
-                            (std::strcmp(a, "quat") == 0 && n == 4 && x[0] == 1 && x[1] == 0 && x[2] == 0 && x[3] == 0) ||
-                            (std::strcmp(a, "euler") == 0 && n == 3 && x[0] == 0 && x[1] == 0 && x[2] == 0);
-      if (!identity)
-        throw InputError(at(scene_xml, s), std::string("site 'robot_mount' ") + a + "=\"" + v +
-                                               "\": the robot's base must be at the world origin (the harness plans in the world frame)");
+    if (std::find(worlds.begin(), worlds.end(), s->Parent()) == worlds.end())
+      throw InputError(at(scene_xml, s), "site 'robot_mount' must be a direct child of <worldbody>");
+    double x[4] = {0, 0, 0, 0};
+    if (const char* v = s->Attribute("pos")) {
+      if (std::sscanf(v, "%lf %lf %lf", &x[0], &x[1], &x[2]) != 3) throw InputError(at(scene_xml, s), "site 'robot_mount': pos expects 3 numbers");
+      mount_p = Vec3(x[0], x[1], x[2]);
+    }
+    // The base may turn about z only: gravity stays along the robot's -z.
+    const std::string yaw_only = "site 'robot_mount': the base may turn about z only (quat=\"cos(a/2) 0 0 sin(a/2)\" or euler=\"0 0 a\")";
+    if (const char* v = s->Attribute("quat")) {
+      if (std::sscanf(v, "%lf %lf %lf %lf", &x[0], &x[1], &x[2], &x[3]) != 4 || x[1] != 0 || x[2] != 0 || (x[0] == 0 && x[3] == 0))
+        throw InputError(at(scene_xml, s), yaw_only);
+      mount_yaw = 2 * std::atan2(x[3], x[0]);
+    } else if (const char* e = s->Attribute("euler")) {
+      if (!xyz_euler || std::sscanf(e, "%lf %lf %lf", &x[0], &x[1], &x[2]) != 3 || x[0] != 0 || x[1] != 0)
+        throw InputError(at(scene_xml, s), yaw_only + " (an euler mount needs the default eulerseq xyz)");
+      mount_yaw = degrees ? x[2] * M_PI / 180 : x[2];
+    }
+    for (const char* a : {"axisangle", "xyaxes", "zaxis"})
+      if (s->Attribute(a)) throw InputError(at(scene_xml, s), yaw_only);
+  }
+  if (!mount_p.isZero() || mount_yaw != 0) {
+    // The harness works in the robot's base frame: the scene is moved by the inverse of the mount
+    // (static parts inside one frame body; bodies that must stay the world's children — free and
+    // mocap bodies — each moved).
+    const Mat3 Rt = Eigen::AngleAxisd(-mount_yaw, Vec3::UnitZ()).toRotationMatrix();
+    const Vec3 t = -(Rt * mount_p);
+    const Quat q_inv(Eigen::AngleAxisd(-mount_yaw, Vec3::UnitZ()));
+    char buf[160];
+    for (size_t wi = 0; wi < worlds.size(); ++wi) {
+      XMLElement* world = worlds[wi];
+      XMLElement* frame = scene.NewElement("body");
+      frame->SetAttribute("name", ("minimanip_scene_frame_" + std::to_string(wi)).c_str());
+      std::snprintf(buf, sizeof buf, "%.12g %.12g %.12g", t.x(), t.y(), t.z());
+      frame->SetAttribute("pos", buf);
+      std::snprintf(buf, sizeof buf, "%.12g 0 0 %.12g", q_inv.w(), q_inv.z());
+      frame->SetAttribute("quat", buf);
+      std::vector<XMLElement*> children;
+      for (XMLElement* c = world->FirstChildElement(); c; c = c->NextSiblingElement()) children.push_back(c);
+      for (XMLElement* c : children) {
+        bool top_level = false;  // a free or mocap body: MuJoCo keeps them the world's children
+        if (std::strcmp(c->Name(), "body") == 0) {
+          top_level = c->BoolAttribute("mocap", false) || c->FirstChildElement("freejoint");
+          for (const XMLElement* j = c->FirstChildElement("joint"); j && !top_level; j = j->NextSiblingElement("joint"))
+            top_level = j->Attribute("type") && std::strcmp(j->Attribute("type"), "free") == 0;
+        }
+        if (!top_level) {
+          frame->InsertEndChild(c);  // moves it
+          continue;
+        }
+        for (const char* a : {"euler", "axisangle", "xyaxes", "zaxis"})
+          if (c->Attribute(a))
+            throw InputError(at(scene_xml, c), std::string("a free or mocap body in a scene whose robot_mount is moved needs its orientation as quat (not ") + a + ")");
+        Vec3 p = Vec3::Zero();
+        if (const char* v = c->Attribute("pos")) std::sscanf(v, "%lf %lf %lf", &p.x(), &p.y(), &p.z());
+        Quat q = Quat::Identity();
+        if (const char* v = c->Attribute("quat")) {
+          double w = 1, x = 0, y = 0, z = 0;
+          std::sscanf(v, "%lf %lf %lf %lf", &w, &x, &y, &z);
+          q = Quat(w, x, y, z).normalized();
+        }
+        const Vec3 p2 = Rt * p + t;
+        const Quat q2 = q_inv * q;
+        std::snprintf(buf, sizeof buf, "%.12g %.12g %.12g", p2.x(), p2.y(), p2.z());
+        c->SetAttribute("pos", buf);
+        std::snprintf(buf, sizeof buf, "%.12g %.12g %.12g %.12g", q2.w(), q2.x(), q2.y(), q2.z());
+        c->SetAttribute("quat", buf);
+      }
+      world->InsertFirstChild(frame);
     }
   }
 
@@ -130,10 +198,7 @@ std::string composeScene(const std::string& scene_xml, const RobotSpec& robot) {
     if (n != "compiler" && n != "option" && n != "size" && n != "visual" && n != "statistic" && n != "extension") break;
     before = c;
   }
-  // The robot's joint ranges are in radians; MuJoCo's default angle unit is the degree.
-  bool degrees = true;
-  for (const XMLElement* c = root->FirstChildElement("compiler"); c; c = c->NextSiblingElement("compiler"))
-    if (const char* unit = c->Attribute("angle")) degrees = std::strcmp(unit, "radian") != 0;
+  // The robot's joint ranges are in radians; convert them when the scene works in degrees.
   if (degrees) {
     std::function<void(XMLElement*)> convert = [&](XMLElement* e) {
       for (XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {

@@ -5,8 +5,10 @@
 //
 // The scene contract (what the harness reads by name):
 //   robot_mount       optional site, a child of <worldbody>: where the robot's base stands (the
-//                     world origin when absent; the harness plans in the world frame, so today the
-//                     mount must be the world origin)
+//                     world origin when absent), turned about z only. The harness works in the
+//                     base's frame: a mount elsewhere moves the scene by its inverse (the static
+//                     parts inside one frame body; free and mocap bodies each), so the composed
+//                     model's world frame is the robot's base frame.
 //   object_<k>        bodies with one free joint and one box geom: the object pool, k = 0, 1, ...
 //   obstacle_<k>      mocap bodies with one box geom: the obstacle pool (optional)
 //   bin_region        box site: where objects are spawned and searched for

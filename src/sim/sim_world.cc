@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <mutex>
+#include <filesystem>
 #include <map>
 #include <set>
 #include <sstream>
@@ -150,7 +151,10 @@ std::unique_ptr<SimWorld> SimWorld::load(const std::string& scene_xml, const Rob
   {
     auto vfs = std::make_unique<mjVFS>();
     mj_defaultVFS(vfs.get());
-    const char* vname = "minimanip_composed_scene.xml";
+    // Named in the scene's folder, so the scene's relative asset paths (meshes, textures) resolve
+    // as they would for the file itself.
+    const std::string vpath = (std::filesystem::path(scene_xml).parent_path() / "minimanip_composed_scene.xml").string();
+    const char* vname = vpath.c_str();
     if (mj_makeEmptyFileVFS(vfs.get(), vname, static_cast<int>(xml.size())) != 0)
       throw InputError(scene_xml, "cannot compose the scene in MuJoCo's virtual file system");
     std::memcpy(vfs->filedata[mj_findFileVFS(vfs.get(), vname)], xml.data(), xml.size());
@@ -222,13 +226,14 @@ std::unique_ptr<SimWorld> SimWorld::load(const std::string& scene_xml, const Rob
   I.foreign_geom.assign(m->ngeom, 0);
   for (int g : I.obstacle_geom) I.foreign_geom[g] = 1;
   for (int g = 0; g < m->ngeom; ++g) {
-    int b = m->geom_bodyid[g];
-    if (b == 0) {
-      I.static_geom[g] = m->geom_type[g] != mjGEOM_PLANE;  // the floor is out of reach
-      continue;
-    }
-    for (; b > 0; b = m->body_parentid[b])
+    for (int b = m->geom_bodyid[g]; b > 0; b = m->body_parentid[b])
       if (b == I.robot_root) I.robot_geom[g] = 1;
+    // The world's static parts: on the world body, or on a body welded to it (a moved mount puts
+    // the scene in one such frame body); not the robot's, not a mocap body's.
+    bool mocap = false;  // a mocap body or one fixed to it moves
+    for (int b = m->geom_bodyid[g]; b > 0 && !mocap; b = m->body_parentid[b]) mocap = m->body_mocapid[b] >= 0;
+    if (!I.robot_geom[g] && !mocap && m->body_weldid[m->geom_bodyid[g]] == 0)
+      I.static_geom[g] = m->geom_type[g] != mjGEOM_PLANE;  // the floor is out of reach
   }
   I.geom_object.assign(m->ngeom, -1);
   for (size_t i = 0; i < I.obj_geom.size(); ++i) I.geom_object[I.obj_geom[i]] = static_cast<int>(i);
@@ -466,6 +471,8 @@ void SimWorld::restoreState(const State& s) {
   I.d->time = s.time;
   mj_forward(I.m, I.d);
 }
+
+int SimWorld::controlsPerStep() const { return impl_->m->nu; }
 
 double SimWorld::replayControls(const std::vector<double>& log) {
   Impl& I = *impl_;

@@ -103,6 +103,8 @@ class SimWorld {
   void restoreState(const State& s);
   /// Steps once per recorded control vector; returns the simulated seconds covered.
   double replayControls(const std::vector<double>& log);
+  /// Controls per step in a recorded log (the model's actuators: arm joints and fingers).
+  int controlsPerStep() const;
 
   /// Static obstacles as the planner should know them (the world body's geoms: table, bins, tray).
   std::vector<Obstacle> staticObstacles() const;

@@ -21,6 +21,12 @@ constexpr double kLimitMargin = 0.05;        // [rad] grasp and place solutions 
 // the quickstart (measured), which is the 0.0022 rad "max tracking error" it reports. Left as it
 // is so that the outcomes stay those of the recorded chain; this check catches real jumps.
 constexpr double kStartTolerance = 0.01;
+
+// Where a trajectory leaves the arm. A straight line's last sample is its own IK solution of the
+// goal, reached from the line's previous samples: for a redundant arm it may differ (in the null
+// space) from the waypoint the line was planned to, so plans end, and hold, where their
+// trajectories end.
+VecX endOf(const JointTrajectory& t) { return t.q.col(t.size() - 1); }
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 Obstacle boxOf(const ObjectState& o) {
@@ -661,7 +667,11 @@ Failure planPick(TrialContext& ctx, const GraspSolution& g, Plan& out) {
   if (!f.ok()) return done(f);
   const double dt = ctx.hw.period();
   JointTrajectory t_approach = cartesianTrajectory(ctx.robot, g.approach, ikNear(ctx), o.scaling, o.cartesian, dt);
-  JointTrajectory t_lift = cartesianTrajectory(ctx.robot, g.lift, ikNear(ctx), o.scaling, o.cartesian, dt);
+  JointTrajectory t_lift;
+  if (!t_approach.empty()) {
+    const VecX q_grasped = endOf(t_approach);  // the lift starts where the approach ends
+    t_lift = cartesianTrajectory(ctx.robot, g.lift, ikNear(ctx), o.scaling, o.cartesian, dt, &q_grasped);
+  }
   if (t_approach.empty() || t_lift.empty())
     return done({t_approach.empty() ? "approach" : "lift", FailureKind::kTimeParameterization,
                  "no smooth time parameterization of the straight line"});
@@ -673,13 +683,14 @@ Failure planPick(TrialContext& ctx, const GraspSolution& g, Plan& out) {
   out.bucket = TimeBucket::kPick;
   out.steps.push_back(gripperStep("open_gripper", ctx.q_rest, g.pre_opening));
   out.steps.push_back(trajectoryStep("move_pregrasp", std::move(t_connect), g.pre_opening, false));
+  const VecX q_grasp = endOf(t_approach), q_lifted = endOf(t_lift);
   out.steps.push_back(trajectoryStep("approach", std::move(t_approach), g.pre_opening, false));
-  PlanStep close = gripperStep("close_gripper", g.q_grasp, 0.0);
+  PlanStep close = gripperStep("close_gripper", q_grasp, 0.0);
   close.expected_opening = g.candidate.width / 2;
   out.steps.push_back(close);
   out.steps.push_back(markerStep("attach", PlanStep::Kind::kAttach));
   out.steps.push_back(trajectoryStep("lift", std::move(t_lift), 0.0, true));
-  out.q_end = g.lift.waypoints.back();
+  out.q_end = q_lifted;
   out.object = g.object.index;
   out.object_half = g.object.half_size;
   out.T_tcp_object = g.T_tcp_object;
@@ -791,10 +802,15 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   if (!f.ok()) return done_connect(f);
   const double dt = ctx.hw.period();
   JointTrajectory t_descend = cartesianTrajectory(ctx.robot, descend, ikNear(ctx), o.scaling, o.cartesian, dt);
-  JointTrajectory t_retreat = cartesianTrajectory(ctx.robot, retreat, ikNear(ctx), o.scaling, o.cartesian, dt);
+  JointTrajectory t_retreat;
+  if (!t_descend.empty()) {
+    const VecX q_placed = endOf(t_descend);  // the retreat starts where the descent ends
+    t_retreat = cartesianTrajectory(ctx.robot, retreat, ikNear(ctx), o.scaling, o.cartesian, dt, &q_placed);
+  }
   if (t_descend.empty() || t_retreat.empty())
     return done_connect({t_descend.empty() ? "place" : "retreat", FailureKind::kTimeParameterization,
                          "no smooth time parameterization of the straight line"});
+  const VecX q_down = endOf(t_descend), q_retreated = endOf(t_retreat);
   out = Plan{};
   out.q_start = q_lift;
   out.name = "place";
@@ -802,17 +818,17 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   out.steps.push_back(trajectoryStep("move_preplace", std::move(t_connect), 0.0, true));
   out.steps.push_back(trajectoryStep("place", std::move(t_descend), 0.0, true));
   out.steps.back().guarded = true;  // the held object meeting the surface early is touch-down, not a fault
-  out.q_end = descend.waypoints.back();
+  out.q_end = q_down;
   out.object = ctx.held;
   out.T_world_target = T_world_object;
   out.places = true;
   if (release) {
-    PlanStep open = gripperStep("open_gripper_release", descend.waypoints.back(), release_opening);
+    PlanStep open = gripperStep("open_gripper_release", q_down, release_opening);
     open.release = true;
     out.steps.push_back(open);
     out.steps.push_back(markerStep("detach", PlanStep::Kind::kMarker));
     out.steps.push_back(trajectoryStep("retreat", std::move(t_retreat), release_opening, false));
-    out.q_end = retreat.waypoints.back();
+    out.q_end = q_retreated;
   }
   if (ctx.faults) ctx.faults->onPlanned(ctx, out);
   return done_connect({});
@@ -1030,9 +1046,16 @@ Failure planPushOf(TrialContext& ctx, const ObjectState& object, Plan& out) {
       continue;
     }
     const double dt = ctx.hw.period();
-    JointTrajectory t_down = cartesianTrajectory(ctx.robot, down, ikNear(ctx), o.scaling, o.cartesian, dt);
-    JointTrajectory t_push = cartesianTrajectory(ctx.robot, push, ikNear(ctx), o.scaling, o.cartesian, dt);
-    JointTrajectory t_up = cartesianTrajectory(ctx.robot, up, ikNear(ctx), o.scaling, o.cartesian, dt);
+    // Each line starts where the one before ends.
+    JointTrajectory t_down = cartesianTrajectory(ctx.robot, down, ikNear(ctx), o.scaling, o.cartesian, dt), t_push, t_up;
+    if (!t_down.empty()) {
+      const VecX q_down = endOf(t_down);
+      t_push = cartesianTrajectory(ctx.robot, push, ikNear(ctx), o.scaling, o.cartesian, dt, &q_down);
+    }
+    if (!t_push.empty()) {
+      const VecX q_pushed = endOf(t_push);
+      t_up = cartesianTrajectory(ctx.robot, up, ikNear(ctx), o.scaling, o.cartesian, dt, &q_pushed);
+    }
     if (t_down.empty() || t_push.empty() || t_up.empty()) {
       last = {"plan_push", FailureKind::kTimeParameterization, "no smooth time parameterization of a straight line"};
       continue;
@@ -1049,8 +1072,8 @@ Failure planPushOf(TrialContext& ctx, const ObjectState& object, Plan& out) {
     out.steps.back().stiff = drag;  // the fingertips end pressing on the top: held firmly there
     out.steps.push_back(trajectoryStep(drag ? "drag" : "push", std::move(t_push), 0.0, false));
     out.steps.back().stiff = true;
+    out.q_end = endOf(t_up);
     out.steps.push_back(trajectoryStep("push_up", std::move(t_up), 0.0, false));
-    out.q_end = up.waypoints.back();
     return {};
   }
   ctx.out.collision_checks += full->checks() + pushing->checks() + connecting->checks();
@@ -1121,8 +1144,8 @@ Failure planRetreatUp(TrialContext& ctx, double distance, Plan& out) {
   out.q_start = ctx.q_rest;
   out.name = "safe";
   out.bucket = TimeBucket::kPlace;
+  out.q_end = endOf(traj);
   out.steps.push_back(trajectoryStep("retreat", std::move(traj), ctx.gripper_opening, ctx.held >= 0));
-  out.q_end = up.waypoints.back();
   return {};
 }
 

@@ -9,8 +9,10 @@
 #include "planning/trajectory.h"
 #include "sim/controllers.h"
 #include "sim/hardware.h"
+#include "core/error.h"
 #include "sim/scene_compose.h"
 
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -200,6 +202,99 @@ TEST(SceneCompose, JointRangesFollowTheScenesAngleUnit) {
   EXPECT_THAT(degrees, ::testing::HasSubstr("range=\"-101.001"));
   EXPECT_THAT(degrees, ::testing::HasSubstr("range=\"0 0.04\""));  // a finger's slide: metres
   EXPECT_EQ(degrees.find("<compiler angle=\"radian\"/>"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace mm
+
+namespace mm {
+namespace {
+
+// A scene whose robot_mount stands 10 cm ahead, 5 cm to the right and turned 20 deg: the composed
+// model's frame is the robot's base, so the scene's sites are where the inverse mount puts them,
+// the static parts still count as the world's (collisions), and the free objects are moved too.
+TEST(SceneCompose, AMovedMountMovesTheSceneIntoTheBaseFrame) {
+  std::stringstream s;
+  s << std::ifstream("scenes/bin_table.xml").rdbuf();
+  std::string xml = s.str();
+  const std::string mount = "<site name=\"robot_mount\" pos=\"0 0 0\"";
+  ASSERT_NE(xml.find(mount), std::string::npos);
+  const double yaw = 20 * M_PI / 180;
+  xml.replace(xml.find(mount), mount.size(),
+              "<site name=\"robot_mount\" pos=\"0.1 -0.05 0\" quat=\"" + std::to_string(std::cos(yaw / 2)) + " 0 0 " +
+                  std::to_string(std::sin(yaw / 2)) + "\"");
+  const std::string path = ::testing::TempDir() + "/moved_mount.xml";
+  std::ofstream(path) << xml;
+  auto plain = SimWorld::load("scenes/bin_table.xml", panda());
+  auto moved = SimWorld::load(path, panda());
+  const Pose M = makePose(Vec3(0.1, -0.05, 0), Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix());
+  for (const char* site : {"bin_region", "place_target"}) {
+    const Pose expected = M.inverse() * plain->site(site).first;
+    EXPECT_LT((moved->site(site).first.matrix() - expected.matrix()).cwiseAbs().maxCoeff(), 1e-6) << site;
+  }
+  for (int i = 0; i < plain->numObjects(); ++i) {
+    const Vec3 expected = M.inverse() * plain->object(i).T_world_object.translation();
+    EXPECT_LT((moved->object(i).T_world_object.translation() - expected).norm(), 1e-6) << i;
+  }
+  // The arm driven into the table: a collision with the world's static parts, as in the plain scene.
+  VecX q = panda().home();
+  q[1] = 1.7;
+  q[3] = -0.3;
+  for (auto* w : {plain.get(), moved.get()}) {
+    w->setArm(q);
+    w->stepKinematic();
+    EXPECT_GT(w->collisionEvents(), 0);
+  }
+}
+
+TEST(SceneCompose, AMountTiltedOffTheVerticalIsRefused) {
+  std::stringstream s;
+  s << std::ifstream("scenes/bin_table.xml").rdbuf();
+  std::string xml = s.str();
+  const std::string mount = "<site name=\"robot_mount\" pos=\"0 0 0\"";
+  xml.replace(xml.find(mount), mount.size(), "<site name=\"robot_mount\" pos=\"0 0 0\" euler=\"0.1 0 0\"");
+  const std::string path = ::testing::TempDir() + "/tilted_mount.xml";
+  std::ofstream(path) << xml;
+  try {
+    SimWorld::load(path, panda());
+    FAIL() << "expected an InputError";
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("the base may turn about z only"));
+  }
+}
+
+}  // namespace
+}  // namespace mm
+
+namespace mm {
+namespace {
+
+// The composed scene is compiled from memory under the scene's own folder: its relative asset paths
+// (here a mesh) resolve as they would for the file, whatever the working directory.
+TEST(SceneCompose, AScenesRelativeAssetPathsResolveAgainstItsFolder) {
+  const std::string dir = ::testing::TempDir() + "/asset_scene";
+  std::filesystem::create_directories(dir + "/meshes");
+  {
+    std::ofstream stl(dir + "/meshes/tetra.stl", std::ios::binary);  // binary STL, 4 facets
+    const float v[4][3][3] = {{{0, 0, 0}, {0.05f, 0, 0}, {0, 0.05f, 0}}, {{0, 0, 0}, {0, 0.05f, 0}, {0, 0, 0.05f}},
+                              {{0, 0, 0}, {0, 0, 0.05f}, {0.05f, 0, 0}}, {{0.05f, 0, 0}, {0, 0, 0.05f}, {0, 0.05f, 0}}};
+    const char header[80] = {};
+    const uint32_t n = 4;
+    const float normal[3] = {0, 0, 0};
+    const uint16_t attr = 0;
+    stl.write(header, 80).write(reinterpret_cast<const char*>(&n), 4);
+    for (const auto& tri : v) {
+      stl.write(reinterpret_cast<const char*>(normal), 12).write(reinterpret_cast<const char*>(tri), 36);
+      stl.write(reinterpret_cast<const char*>(&attr), 2);
+    }
+  }
+  std::stringstream s;
+  s << std::ifstream("scenes/bin_table.xml").rdbuf();
+  std::string xml = s.str();
+  xml.replace(xml.find("<default>"), 9, "<asset><mesh name=\"tetra_mesh\" file=\"meshes/tetra.stl\"/></asset>\n  <default>");
+  xml.replace(xml.find("<worldbody>"), 11, "<worldbody>\n    <geom name=\"tetra_geom\" type=\"mesh\" mesh=\"tetra_mesh\" pos=\"-0.6 0.6 0.01\"/>");
+  std::ofstream(dir + "/scene.xml") << xml;
+  EXPECT_NO_THROW(SimWorld::load(dir + "/scene.xml", panda()));
 }
 
 }  // namespace
