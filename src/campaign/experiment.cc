@@ -83,6 +83,11 @@ std::string resolvePath(const std::string& path, const std::string& origin) {
   return (std::filesystem::path(origin).parent_path() / v).lexically_normal().string();
 }
 
+std::string robotPathFromName(const std::string& name_or_path) {
+  if (name_or_path.find('/') != std::string::npos || name_or_path.find('.') != std::string::npos) return name_or_path;
+  return (std::filesystem::path(MINIMANIP_SOURCE_DIR) / "robots" / name_or_path / (name_or_path + ".yaml")).string();
+}
+
 std::vector<std::vector<std::string>> sweepCells(const std::vector<ParamSet::Sweep>& sweep) {
   std::vector<std::vector<std::string>> cells{{}};
   for (const ParamSet::Sweep& f : sweep) {

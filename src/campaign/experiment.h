@@ -76,4 +76,8 @@ std::vector<std::vector<std::string>> sweepCells(const std::vector<ParamSet::Swe
 /// the working directory when set by --set (origin ""), the project root when left default.
 std::string resolvePath(const std::string& path, const std::string& origin);
 
+/// A robot named on a benchmark's command line: a bare name ("panda", "ur5e") is the project's
+/// robots/<name>/<name>.yaml; anything else is a path (an arm YAML, URDF or MJCF file).
+std::string robotPathFromName(const std::string& name_or_path);
+
 }  // namespace mm

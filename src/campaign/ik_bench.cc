@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "sim/mjcf_robot.h"
+#include "campaign/experiment.h"
 #include "campaign/stats.h"
 #include "core/error.h"
 #include "grasp/grasp.h"
@@ -190,7 +191,7 @@ std::string cpuModel() {
 }  // namespace
 
 void IkBenchOptions::declare(ConfigArchive& a) {
-  a.value("robot", robot, "a robot's name under robots/ (panda, ur5e) or the path of its YAML");
+  a.value("robot", robot, "a robot's name under robots/ (panda, ur5e) or the path of its YAML, URDF or MJCF file");
   a.path("scene", scene, "scene MJCF of the bin set's grasp and place poses");
   a.choice("tip", tip, {"tcp", "flange"}, "the frame the poses are for (published KDL/TRAC-IK figures are for the flange)");
   a.value("poses", poses, {1, 1e7}, "", "poses per set");
@@ -203,9 +204,7 @@ void IkBenchOptions::declare(ConfigArchive& a) {
 }
 
 std::string runIkBench(const IkBenchOptions& o) {
-  const std::string robot_path = o.robot.find('/') == std::string::npos && o.robot.find(".yaml") == std::string::npos
-                                     ? std::string("robots/") + o.robot + "/" + o.robot + ".yaml"
-                                     : o.robot;
+  const std::string robot_path = robotPathFromName(o.robot);
   if (o.tip != "tcp" && o.tip != "flange") throw InputError("--tip " + o.tip, "expected tcp or flange");
   const RobotModel loaded = loadAnyRobot(robot_path);
   const RobotModel robot = o.tip == "flange" ? loaded.withFlangeTip() : loaded;

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <thread>
 
+#include "campaign/experiment.h"
 #include "sim/mjcf_robot.h"
 #include "campaign/stats.h"
 #include "core/error.h"
@@ -211,7 +212,7 @@ bool jerkBounded(int tp) { return tp == 1 || tp == 2; }
 }  // namespace
 
 void PlanBenchOptions::declare(ConfigArchive& a) {
-  a.path("robot", robot, "robot YAML");
+  a.value("robot", robot, "a robot's name under robots/ (panda, ur5e) or the path of its YAML, URDF or MJCF file");
   a.path("scene", scene, "scene MJCF the problems are drawn in");
   a.value("scenes", scenes, {1, 100000}, "", "seeded bin layouts (three problems each)");
   a.choice("problems", problems, {"bin", "clutter"}, "bin: the bin scene's motions; clutter: with seeded obstacles that block the direct motions");
@@ -227,7 +228,7 @@ void PlanBenchOptions::declare(ConfigArchive& a) {
 
 std::string runPlanBench(const PlanBenchOptions& o) {
   seedOmplGlobally(static_cast<uint32_t>(mixSeed(o.seed, 99, 0)));
-  const RobotModel robot = loadAnyRobot(o.robot);
+  const RobotModel robot = loadAnyRobot(robotPathFromName(o.robot));
   auto world = SimWorld::load(o.scene, robot);
   std::vector<std::string> planners = o.planners.empty() ? plannerNames() : o.planners;
   for (const auto& p : planners)

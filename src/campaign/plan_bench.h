@@ -16,7 +16,7 @@ namespace mm {
 struct PlanBenchOptions {
   /// Every option of `minimanip plan-bench` (--key value on the command line).
   void declare(ConfigArchive& a);
-  std::string robot = "robots/panda/panda.yaml";
+  std::string robot = "panda";  ///< a name under robots/ or a path (robotPathFromName)
   std::string scene = "scenes/bin_table.xml";
   int scenes = 20;                        ///< seeded bin layouts; 3 problems each
   std::string problems = "bin";           ///< "bin" or "clutter"

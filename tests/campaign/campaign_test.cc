@@ -120,6 +120,19 @@ TEST(Campaign, AMovedMountPicksAndPlaces) {
   expectCleanPicks(trials);
 }
 
+// The benchmarks take a robot by name from any working directory: the UR5e's closed form on its
+// random and near-singular poses (50 each, seed 1) solves every one.
+TEST(Campaign, IkBenchTakesTheUr5eByNameFromAnyFolder) {
+  TempDir d;
+  const std::string cmd = "cd " + d.path().string() + " && " + MINIMANIP_BINARY +
+                          " ik-bench --robot ur5e --poses 50 --seed 1 --sets random,singular --solvers analytic --out " +
+                          (d.path() / "ik").string() + " > /dev/null 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  const json j = json::parse(std::ifstream(d.path() / "ik" / "ik_bench.json"));
+  EXPECT_THAT(j["robot"].get<std::string>(), HasSubstr("robots/ur5e/ur5e.yaml"));
+  for (const char* set : {"random", "singular"}) EXPECT_EQ(j["sets"][set][0]["successes"], 50) << set;
+}
+
 // The clearing tree picks until the bin is empty, or until target_count objects are placed.
 TEST(Campaign, ClearingEmptiesTheBinOrStopsAtTheCount) {
   TempDir d;
