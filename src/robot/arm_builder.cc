@@ -118,7 +118,6 @@ void addLink(RobotSpec& s, LinkSpec ls, const Inertia& in, const std::string& de
 
 void finishArm(RobotSpec& s, const Companion& c, const Pose& T_last_flange, const std::string& gripper_yaml,
                const std::string& description) {
-  namespace fs = std::filesystem;
   const YAML::Node& y = c.y;
   const auto& r = c.r;
   if (s.joints.empty()) throw InputError(description, "no moving joint on the arm's chain");
@@ -143,19 +142,10 @@ void finishArm(RobotSpec& s, const Companion& c, const Pose& T_last_flange, cons
   s.home = home;
   s.damping = c.number("damping", 0.5);
   s.armature = c.number("armature", 0.1);
-  if (y["analytic_ik"]) {
-    s.analytic_ik = r.text(y, "analytic_ik");
-    if (s.analytic_ik != "panda" && s.analytic_ik != "ur")
-      throw InputError(r.at(y["analytic_ik"]), "'analytic_ik' expects panda or ur, got '" + s.analytic_ik + "'");
-  }
-  std::string gpath = gripper_yaml;
-  if (gpath.empty()) {
-    if (!y["gripper"])
-      throw InputError(description, "no gripper: name one in " + c.path + " (gripper: path) or with the experiment's gripper key");
-    const std::string rel = r.text(y, "gripper");
-    gpath = fs::path(rel).is_absolute() ? rel : (fs::path(c.path).parent_path() / rel).lexically_normal().string();
-  }
-  spec_io::mountGripper(s, gpath);
+  s.analytic_ik = spec_io::readAnalyticIk(r, y);
+  if (gripper_yaml.empty() && !y["gripper"])
+    throw InputError(description, "no gripper: name one in " + c.path + " (gripper: path) or with the experiment's gripper key");
+  spec_io::mountGripper(s, spec_io::gripperPath(gripper_yaml, r, y, c.path));
 }
 
 }  // namespace mm::arm_builder

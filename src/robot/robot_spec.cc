@@ -84,6 +84,20 @@ void mountGripper(RobotSpec& s, const std::string& gpath) {
       throw InputError(s.file, "the name '" + seen[i] + "' is used twice by the arm and its gripper (" + gpath + ")");
 }
 
+std::string gripperPath(const std::string& chosen, const Reader& r, const YAML::Node& map, const std::string& file) {
+  if (!chosen.empty()) return chosen;
+  const std::filesystem::path rel = r.text(map, "gripper");
+  return rel.is_absolute() ? rel.string() : (std::filesystem::path(file).parent_path() / rel).lexically_normal().string();
+}
+
+std::string readAnalyticIk(const Reader& r, const YAML::Node& map) {
+  if (!map["analytic_ik"]) return "";
+  const std::string form = r.text(map, "analytic_ik");
+  if (form != "panda" && form != "ur")
+    throw InputError(r.at(map["analytic_ik"]), "'analytic_ik' expects panda or ur, got '" + form + "'");
+  return form;
+}
+
 }  // namespace spec_io
 
 using spec_io::Reader;
@@ -137,11 +151,7 @@ RobotSpec loadRobotSpec(const std::string& path, const std::string& gripper_yaml
   s.file = path;
   s.name = r.text(root, "name");
   s.base_link = r.text(root, "base_link");
-  if (root["analytic_ik"]) {
-    s.analytic_ik = r.text(root, "analytic_ik");
-    if (s.analytic_ik != "panda" && s.analytic_ik != "ur")
-      throw InputError(r.at(root["analytic_ik"]), "'analytic_ik' expects panda or ur, got '" + s.analytic_ik + "'");
-  }
+  s.analytic_ik = spec_io::readAnalyticIk(r, root);
   const YAML::Node joints = r.require(root, "joints", root);
   if (!joints.IsSequence() || joints.size() < 1)
     throw InputError(r.at(joints), "'joints' expects a list of joints");
@@ -191,12 +201,7 @@ RobotSpec loadRobotSpec(const std::string& path, const std::string& gripper_yaml
     throw InputError(r.at(links), "the first link must be the base link '" + s.base_link + "'");
 
   // The gripper: the experiment's choice, else the robot's default (relative to the robot file).
-  std::string gpath = gripper_yaml;
-  if (gpath.empty()) {
-    const std::string rel = r.text(root, "gripper");
-    gpath = std::filesystem::path(rel).is_absolute() ? rel : (std::filesystem::path(s.directory()) / rel).lexically_normal().string();
-  }
-  spec_io::mountGripper(s, gpath);
+  spec_io::mountGripper(s, spec_io::gripperPath(gripper_yaml, r, root, path));
   return s;
 }
 

@@ -67,5 +67,9 @@ LinkSpec readLink(const Reader& r, const YAML::Node& l);
 /// Reads `gripper_path`, mounts it on the arm in `s` (links, TCP) and checks that no name is used
 /// twice.
 void mountGripper(RobotSpec& s, const std::string& gripper_path);
+/// The gripper to mount: `chosen` (the experiment's), else `map`'s `gripper`, relative to `file`.
+std::string gripperPath(const std::string& chosen, const Reader& r, const YAML::Node& map, const std::string& file);
+/// `map`'s optional `analytic_ik` (a closed form RobotSpec::analytic_ik names); "" when absent.
+std::string readAnalyticIk(const Reader& r, const YAML::Node& map);
 
 }  // namespace mm::spec_io

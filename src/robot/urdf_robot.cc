@@ -260,7 +260,8 @@ RobotSpec loadUrdfRobotSpec(const std::string& urdf_path, const std::string& gri
       };
   // Walk the chain: fixed joints fold into the next joint's origin (and their links into the moving
   // link before them).
-  LinkSpec current{s.base_link};
+  LinkSpec current;
+  current.name = s.base_link;
   arm_builder::Inertia current_inertia;
   gather(base, Pose::Identity(), current, current_inertia);
   Pose T_acc = Pose::Identity();  // from the last moving link's frame
@@ -290,7 +291,8 @@ RobotSpec loadUrdfRobotSpec(const std::string& urdf_path, const std::string& gri
     js.effort = lim->effort;
     arm_builder::recognizeDh(js);
     s.joints.push_back(js);
-    current = LinkSpec{child->name};
+    current = LinkSpec{};
+    current.name = child->name;
     current_inertia = arm_builder::Inertia{};
     T_acc = Pose::Identity();
     gather(child, Pose::Identity(), current, current_inertia);

@@ -136,7 +136,8 @@ RobotSpec readMjcfArm(const std::string& path, const mjModel* m, const std::stri
     }
   };
 
-  LinkSpec current{s.base_link};
+  LinkSpec current;
+  current.name = s.base_link;
   arm_builder::Inertia current_inertia;
   gather(base, Pose::Identity(), current, current_inertia);
   Pose T_acc = Pose::Identity();
@@ -186,7 +187,8 @@ RobotSpec readMjcfArm(const std::string& path, const mjModel* m, const std::stri
     arm_joints.push_back(j);
     arm_builder::recognizeDh(js);
     s.joints.push_back(js);
-    current = LinkSpec{bodyName(m, b)};
+    current = LinkSpec{};
+    current.name = bodyName(m, b);
     current_inertia = arm_builder::Inertia{};
     T_acc = Pose::Identity();
     gather(b, Pose::Identity(), current, current_inertia);
