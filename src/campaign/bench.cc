@@ -31,6 +31,9 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
   auto secs = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
 
   double wall_full = 0, wall_tree = 0, wall_chain = 0, sim_task = 0, wall_replay = 0, sim_replay = 0;
+  double wall_pool = 0, sim_pool = 0;  // the same controls on the old model: six cubes, those out of play parked
+  SpawnOptions pooled = cell.spawn;
+  pooled.pool = std::max(6, cell.spawn.count_max);
   long ok = 0, same = 0, steps = 0, trials = 0;
   std::vector<double> ratio;  // per trial: tree wall / chain wall
   std::vector<double> log;
@@ -40,7 +43,7 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
     // the tree-less chain of the same actions, and as bare MuJoCo stepping of the tree run's controls.
     const auto t0 = Clock::now();
     Rng rng = Rng::stream(e.seed, i, Purpose::kScene);
-    const SpawnResult spawn = spawnObjects(*world, robot, cell.T_world_bin, cell.bin_half, rng, e.spawn);
+    const SpawnResult spawn = spawnObjects(*world, robot, cell.T_world_bin, cell.bin_half, rng, cell.spawn);
     if (!spawn.ok) continue;
     ++trials;
     const SimWorld::State start = world->saveState();
@@ -58,7 +61,7 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
     sim_task += world->time() - start.time;
 
     Rng rng2 = Rng::stream(e.seed, i, Purpose::kScene);
-    spawnObjects(*world, robot, cell.T_world_bin, cell.bin_half, rng2, e.spawn);
+    spawnObjects(*world, robot, cell.T_world_bin, cell.bin_half, rng2, cell.spawn);
     auto hw2 = makeMujocoHardware(*world, robot, spawn.active);
     const auto t3 = Clock::now();
     TrialContext ctx(*hw2, robot, cell.statics, e.task, cell.perception, e.seed, static_cast<uint64_t>(i));
@@ -73,6 +76,12 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
     sim_replay += world->replayControls(log);
     wall_replay += secs(t5, Clock::now());
     steps += static_cast<long>(log.size() / world->controlsPerStep());
+
+    Rng rng3 = Rng::stream(e.seed, i, Purpose::kScene);
+    spawnObjects(*world, robot, cell.T_world_bin, cell.bin_half, rng3, pooled);
+    const auto t6 = Clock::now();
+    sim_pool += world->replayControls(log);
+    wall_pool += secs(t6, Clock::now());
   }
   std::filesystem::remove_all(logs);
   const double wall_total = secs(t_all, Clock::now());
@@ -103,6 +112,10 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
     << sim_task << " sim s in " << wall_tree << " s)\n";
   o << "  pure MuJoCo, same scenes and controls:          " << sim_replay / wall_replay << " simulated s per wall s ("
     << sim_replay << " sim s, " << steps << " steps in " << wall_replay << " s)\n";
+  o << "  bare stepping, objects in play only:            " << steps / wall_replay << " steps/s\n";
+  o << "  bare stepping, the parked-pool model (" << pooled.pool << " cubes):    " << steps / wall_pool
+    << " steps/s (the same controls, " << sim_pool << " sim s)\n";
+  o << "  speed-up of the model over the parked pool:     " << wall_pool / wall_replay << "x\n";
   o.precision(3);
   o << "  harness overhead (tree run wall / pure stepping wall for the same simulated time): "
     << (wall_tree / sim_task) / (wall_replay / sim_replay) << "x\n\n";

@@ -370,7 +370,7 @@ void testFault(const Experiment& e, uint64_t trial, int attempt) {
 TrialRecord runOneTrial(const Experiment& e, const RobotModel& robot, const Cell& cell, SimWorld& world, TrialRunner& runner,
                         uint64_t trial, const fs::path& out) {
   Rng rng_scene = Rng::stream(e.seed, trial, Purpose::kScene);
-  const SpawnResult spawn = spawnObjects(world, robot, cell.T_world_bin, cell.bin_half, rng_scene, e.spawn);
+  const SpawnResult spawn = spawnObjects(world, robot, cell.T_world_bin, cell.bin_half, rng_scene, cell.spawn);
   TrialOutcome o;
   std::string bt_log;
   if (!spawn.ok) {

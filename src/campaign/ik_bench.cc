@@ -145,6 +145,7 @@ std::vector<Pose> binPoses(const RobotModel& r, const std::string& scene, int n,
   SpawnOptions so;
   so.physics = false;
   so.count_max = 3;
+  so.resolve("(default objects)");
   std::vector<Pose> out;
   const double preferred = yawOf(r.fk(r.home()).linear());
   while (static_cast<int>(out.size()) < n) {

@@ -95,6 +95,7 @@ std::vector<Problem> makeProblems(const RobotModel& robot, SimWorld& world, int 
   Rng clutter_rng(mixSeed(seed, 2024, 1));
   SpawnOptions so;
   so.physics = false;
+  so.resolve("(default objects)");
   const double preferred = yawOf(robot.fk(robot.home()).linear());
   auto solve = [&](const Pose& T, const VecX& seed_q, VecX& q) {
     IkRequest req;

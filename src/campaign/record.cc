@@ -35,7 +35,7 @@ void TrialRecord::describe(RecordArchive& a) {
   a.field("dropped", o.dropped, "", "a held object left the hand");
   a.field("objects_in_bin", objects_in_bin, "", "objects spawned in the bin");
   a.field("spawn_attempts", spawn_attempts, "", "spawns drawn until one settled cleanly");
-  a.field("target_object", o.target_object, "", "the first object picked (scene pool index)");
+  a.field("target_object", o.target_object, "", "the first object picked (its index k: object_<k> of the trial's model)");
   a.field("grasp_candidates_tried", o.grasp_candidates_tried, "", "grasp candidates filtered, all picks");
   a.field("pushes", o.pushes, "", "pushes planned to move an object no grasp fits (PushObject)");
   a.field("grasp_opening", o.grasp_opening, "m", "per finger after the last close");
@@ -69,7 +69,7 @@ void TrialRecord::describe(RecordArchive& a) {
   a.list("picks", n_picks, [&](size_t i, RecordArchive& p) {
     if (p.reading() && o.picks.size() <= i) o.picks.resize(i + 1);
     PickRecord& k = o.picks[i];
-    p.field("object", k.object, "", "scene pool index");
+    p.field("object", k.object, "", "object index (object_<k>)");
     p.field("at_target", k.at_target, "", "let go of over its target by a place");
     p.field("placed", k.placed, "", "evaluated within the tolerances");
     p.field("position_error", k.position_error, "m", "horizontal");
@@ -94,7 +94,7 @@ void TrialRecord::describe(RecordArchive& a) {
   a.list("objects_left", n_left, [&](size_t i, RecordArchive& l) {
     if (l.reading() && o.left.size() <= i) o.left.resize(i + 1);
     LeftRecord& k = o.left[i];
-    l.field("object", k.object, "", "scene pool index");
+    l.field("object", k.object, "", "object index (object_<k>)");
     std::vector<double> p{k.position.x(), k.position.y(), k.position.z()};
     l.field("position", p, "m", "where it rests (world x, y, z)");
     if (p.size() == 3) k.position = Vec3(p[0], p[1], p[2]);

@@ -69,10 +69,11 @@ Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& worl
   c.statics = world.staticObstacles();
   const auto [T_bin, bin_half] = world.site("bin_region");
   const auto [T_place, place_half] = world.site("place_target");
-  const ObjectState proto = world.object(0);
-  if (e.spawn.count_max > world.numObjects())
-    throw InputError(e.scene_path, "objects.count_max is " + std::to_string(e.spawn.count_max) + " but the scene has " +
-                                       std::to_string(world.numObjects()) + " objects (object_0 ...): expected at most that many");
+  // The place target's height and the hardcoded perception's object: the first kind's.
+  c.spawn = e.spawn;
+  c.spawn.resolve(e.file);
+  ObjectState proto;
+  proto.half_size = c.spawn.loaded.find(c.spawn.kinds.front())->half_size;
   c.T_world_bin = T_bin;
   c.bin_half = bin_half;
   c.T_world_place_target = T_place;

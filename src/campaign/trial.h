@@ -26,9 +26,11 @@ struct Cell {
   Pose T_world_place_target = Pose::Identity();  ///< where the placed object rests
   Pose T_world_bin = Pose::Identity();           ///< the scene's bin_region site (spawning)
   Vec3 bin_half = Vec3::Zero();
+  SpawnOptions spawn;  ///< the experiment's, its object catalogue loaded
 };
 
-/// The cell of experiment `e` as the scene describes it (sites bin_region and place_target).
+/// The cell of experiment `e` as the scene describes it (sites bin_region and place_target) with
+/// the experiment's object catalogue. Throws InputError for an unreadable catalogue or unknown kind.
 Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& world);
 
 /// Wall-clock accounting of the tree itself (for the benchmark), summed over the trials run.

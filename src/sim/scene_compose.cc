@@ -85,7 +85,7 @@ void collectNames(const XMLElement* e, const char* element, std::vector<const XM
 
 }  // namespace
 
-std::string composeScene(const std::string& scene_xml, const RobotSpec& robot) {
+std::string composeScene(const std::string& scene_xml, const RobotSpec& robot, const std::vector<ObjectKind>& objects) {
   XMLDocument scene;
   parseFile(scene, scene_xml);
   XMLElement* root = scene.RootElement();
@@ -223,13 +223,48 @@ std::string composeScene(const std::string& scene_xml, const RobotSpec& robot) {
     after = after ? root->InsertAfterChild(after, copy) : root->InsertFirstChild(copy);
   }
 
-  // Weld-on-grasp (the source's attach plugin): one weld per pool object, off until a grasp.
-  XMLElement* eq = scene.NewElement("equality");
-  for (int k = 0;; ++k) {
+  // The trial's objects, as the world's last free bodies (before the obstacle pool, if any).
+  for (const XMLElement* b : bodies)
+    if (std::strncmp(b->Attribute("name"), "object_", 7) == 0)
+      throw InputError(at(scene_xml, b), std::string("body '") + b->Attribute("name") +
+                                             "': objects come from the object catalogue (objects.catalogue, objects.kinds), not the scene");
+  XMLElement* world = worlds.front();
+  XMLElement* obstacle = nullptr;
+  for (XMLElement* c = world->FirstChildElement("body"); c && !obstacle; c = c->NextSiblingElement("body"))
+    if (c->Attribute("name") && std::strncmp(c->Attribute("name"), "obstacle_", 9) == 0) obstacle = c;
+  char buf[200];
+  for (size_t k = 0; k < objects.size(); ++k) {
+    const ObjectKind& o = objects[k];
     const std::string name = "object_" + std::to_string(k);
-    bool found = false;
-    for (const XMLElement* b : bodies) found = found || name == b->Attribute("name");
-    if (!found) break;
+    XMLElement* body = scene.NewElement("body");
+    body->SetAttribute("name", name.c_str());
+    std::snprintf(buf, sizeof buf, "0 %.12g -100", 0.2 * static_cast<double>(k));  // out of the way until parked
+    body->SetAttribute("pos", buf);
+    XMLElement* joint = scene.NewElement("freejoint");
+    joint->SetAttribute("name", name.c_str());
+    body->InsertEndChild(joint);
+    XMLElement* geom = scene.NewElement("geom");
+    geom->SetAttribute("name", name.c_str());
+    geom->SetAttribute("type", "box");
+    std::snprintf(buf, sizeof buf, "%.12g %.12g %.12g", o.half_size.x(), o.half_size.y(), o.half_size.z());
+    geom->SetAttribute("size", buf);
+    std::snprintf(buf, sizeof buf, "%.12g", o.mass);
+    geom->SetAttribute("mass", buf);
+    geom->SetAttribute("condim", o.condim);
+    std::snprintf(buf, sizeof buf, "%.12g %.12g %.12g", o.friction[0], o.friction[1], o.friction[2]);
+    geom->SetAttribute("friction", buf);
+    std::snprintf(buf, sizeof buf, "%.6g %.6g %.6g %.6g", o.rgba[0], o.rgba[1], o.rgba[2], o.rgba[3]);
+    geom->SetAttribute("rgba", buf);
+    body->InsertEndChild(geom);
+    if (!obstacle) world->InsertEndChild(body);
+    else if (XMLNode* prev = obstacle->PreviousSibling()) world->InsertAfterChild(prev, body);
+    else world->InsertFirstChild(body);
+  }
+
+  // Weld-on-grasp (the source's attach plugin): one weld per object, off until a grasp.
+  XMLElement* eq = scene.NewElement("equality");
+  for (size_t k = 0; k < objects.size(); ++k) {
+    const std::string name = "object_" + std::to_string(k);
     XMLElement* w = scene.NewElement("weld");
     w->SetAttribute("name", ("attach_" + std::to_string(k)).c_str());
     w->SetAttribute("body1", robot.gripper.hand.name.c_str());

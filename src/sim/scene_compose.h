@@ -1,7 +1,8 @@
-// Scene composition: a scene MJCF holds the world only (table, bins, tray, object pool, obstacles,
-// cameras, lights); the robot's MJCF, written from its arm and gripper YAML, is mounted into it by
-// code, with the weld-on-grasp equalities that tie each object to the gripper's hand. MuJoCo 2.2
-// has no model-editing API, so the composition is XML, compiled from memory.
+// Scene composition: a scene MJCF holds the world only (table, bins, tray, obstacles, cameras,
+// lights); the robot's MJCF, written from its arm and gripper YAML, is mounted into it by code, the
+// trial's objects are added from the object catalogue (sim/object_catalogue.h), with the
+// weld-on-grasp equalities that tie each object to the gripper's hand. MuJoCo 2.2 has no
+// model-editing API, so the composition is XML, compiled from memory.
 //
 // The scene contract (what the harness reads by name):
 //   robot_mount       optional site, a child of <worldbody>: where the robot's base stands (the
@@ -9,20 +10,28 @@
 //                     base's frame: a mount elsewhere moves the scene by its inverse (the static
 //                     parts inside one frame body; free and mocap bodies each), so the composed
 //                     model's world frame is the robot's base frame.
-//   object_<k>        bodies with one free joint and one box geom: the object pool, k = 0, 1, ...
+//   object_park       optional site: where objects out of play rest (object_k at 0.1 m steps
+//                     along the site's x, five to a row, rows 0.1 m apart along its y; its z is the
+//                     surface they rest on). Absent: far below the scene.
 //   obstacle_<k>      mocap bodies with one box geom: the obstacle pool (optional)
 //   bin_region        box site: where objects are spawned and searched for
 //   place_target      site: where a placed object goes
 #pragma once
 #include <string>
 
+#include <vector>
+
 #include "robot/robot_spec.h"
+#include "sim/object_catalogue.h"
 
 namespace mm {
 
-/// The scene's MJCF with the robot mounted and one weld `attach_<k>` (off) per object_<k>, as a
+/// The scene's MJCF with the robot mounted, `objects` added as bodies object_0, object_1, ... (a
+/// free joint and one box geom each, in the base frame, where MuJoCo's initial state leaves them
+/// does not matter: SimWorld parks them) and one weld `attach_<k>` (off) per object, as a
 /// self-contained MJCF text (the scene's <include>s expanded). Throws InputError naming the scene
-/// file for malformed XML, a scene that already holds a body of the robot's, or a misplaced mount.
-std::string composeScene(const std::string& scene_xml, const RobotSpec& robot);
+/// file for malformed XML, a scene that already holds a body of the robot's or an object_<k> body,
+/// or a misplaced mount.
+std::string composeScene(const std::string& scene_xml, const RobotSpec& robot, const std::vector<ObjectKind>& objects);
 
 }  // namespace mm

@@ -1,18 +1,39 @@
 #include "sim/scene_sampler.h"
 
 #include <cmath>
+#include <filesystem>
+
+#include "core/error.h"
 
 namespace mm {
 
 void SpawnOptions::declare(ConfigArchive& a) {
   a.value("count_min", count_min, {1, 100}, "", "fewest objects in the bin");
-  a.value("count_max", count_max, {1, 100}, "", "most objects in the bin (at most the scene's pool: object_0, object_1, ...)");
+  a.value("count_max", count_max, {1, 100}, "", "most objects in the bin");
+  a.path("catalogue", catalogue, "the object catalogue (YAML: kinds by name with shape, size, mass, friction, condim, colour; a colour palette); paths as for robot");
+  a.list("kinds", kinds, {}, "the catalogue's kinds a trial's objects are drawn from, uniformly and independently per object (one kind: no draw)");
+  a.value("pool", pool, {0, 100}, "",
+          "objects in the model at least: those out of play parked on the floor at the scene's object_park (copies of the first kind). "
+          "0: the model holds only the objects in play. Kept to measure what a parked pool costs (tools/bench)");
   a.value("wall_margin", wall_margin, {0.0, 0.1}, "m", "object centers keep this far from the bin walls");
   a.value("min_spacing", min_spacing, {0.05, 0.3}, "m", "least distance between object centers");
   a.value("settle_time", settle_time, {0.0, 5.0}, "s", "simulated settling after spawning");
   a.value("drop", drop,
          "drop the objects into the bin from above in random orientations (layers of three, wall_margin from the walls), "
          "so that they touch, lean and stack; false: upright, min_spacing apart");
+}
+
+void SpawnOptions::resolve(const std::string& file) {
+  std::filesystem::path p = catalogue;
+  if (p.is_relative()) p = std::filesystem::path(MINIMANIP_SOURCE_DIR) / p;
+  loaded = loadObjectCatalogue(p.lexically_normal().string());
+  if (kinds.empty()) throw InputError(file, "objects.kinds: expected at least one kind of " + loaded.file);
+  for (const std::string& k : kinds)
+    if (!loaded.find(k)) {
+      std::string names;
+      for (const std::string& n : loaded.names()) names += (names.empty() ? "" : ", ") + n;
+      throw InputError(file, "objects.kinds: '" + k + "' is not in the catalogue " + loaded.file + " (expected one of " + names + ")");
+    }
 }
 
 namespace {
@@ -26,9 +47,22 @@ Mat3 uniformRotation(Rng& rng) {
 }  // namespace
 
 SpawnResult spawnObjects(SimWorld& w, const RobotModel& robot, const Pose& T_region, const Vec3& half, Rng& rng,
-                         const SpawnOptions& o) {
+                         const SpawnOptions& options) {
+  SpawnOptions resolved;
+  if (options.loaded.kinds.empty()) {
+    resolved = options;
+    resolved.resolve("(spawn options)");
+  }
+  const SpawnOptions& o = options.loaded.kinds.empty() ? resolved : options;
   SpawnResult r;
   const int count = o.count_min + static_cast<int>(rng.below(o.count_max - o.count_min + 1));
+  // The objects in play (a kind drawn per object when there are several), then the parked pool.
+  std::vector<ObjectKind> objects;
+  for (int i = 0; i < std::max(count, o.pool); ++i) {
+    const size_t kind = i < count && o.kinds.size() > 1 ? rng.below(o.kinds.size()) : 0;
+    objects.push_back(o.loaded.asObject(*o.loaded.find(o.kinds[kind]), i));
+  }
+  w.setObjects(objects);
   const double surface = T_region.translation().z();
   const VecX zero = VecX::Zero(robot.dof());
   for (r.attempts = 1; r.attempts <= o.max_attempts; ++r.attempts) {

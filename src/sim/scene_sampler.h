@@ -9,14 +9,23 @@
 
 #include "core/config.h"
 #include "core/rng.h"
+#include "sim/object_catalogue.h"
 #include "sim/sim_world.h"
 
 namespace mm {
 
 struct SpawnOptions {
-  /// Keys count_min, count_max, wall_margin, min_spacing, settle_time, drop (section "objects").
+  /// Keys count_min, count_max, catalogue, kinds, pool, wall_margin, min_spacing, settle_time, drop
+  /// (section "objects").
   void declare(ConfigArchive& a);
+  /// Loads `catalogue` (a relative path: against the project root) and checks `kinds` against it;
+  /// throws InputError naming `file` (the experiment) for an unknown kind.
+  void resolve(const std::string& file);
   int count_min = 1, count_max = 3;
+  std::string catalogue = "scenes/objects.yaml";  ///< the object catalogue
+  std::vector<std::string> kinds{"cube_5cm"};      ///< the catalogue's kinds a trial draws from
+  int pool = 0;  ///< objects in the model, at least: out-of-play ones parked (today's pool, for benchmarks)
+  ObjectCatalogue loaded;  ///< `catalogue` as read by resolve()
   bool drop = false;           ///< dropped from above in random orientations (physics only; mock: placed as without)
   double wall_margin = 0.07;   ///< [m] object centers keep this far from the region's edges
   double min_spacing = 0.11;   ///< [m] between object centers
@@ -33,7 +42,9 @@ struct SpawnResult {
   std::string reason;
 };
 
-/// Resets the world (arm at home) and places the objects in `region` (a box site on the bin floor).
+/// Draws the trial's objects (count, and kinds when there are several), makes the world's model hold
+/// exactly those (SimWorld::setObjects; `pool` adds parked ones), resets it (arm at home) and places
+/// them in `region` (a box site on the bin floor). Unresolved options are resolved on a copy.
 SpawnResult spawnObjects(SimWorld& world, const RobotModel& robot, const Pose& T_region, const Vec3& region_half,
                          Rng& rng, const SpawnOptions& options);
 

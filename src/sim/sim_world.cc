@@ -137,16 +137,68 @@ struct SimWorld::Impl {
   }
 };
 
-SimWorld::SimWorld() : impl_(std::make_unique<Impl>()) {}
+struct SimWorld::Shared {
+  std::string scene_xml;
+  RobotSpec spec;
+  std::vector<std::string> joint_names;
+  VecX home;
+  std::map<std::string, std::unique_ptr<Impl>> models;  // by object list
+  std::vector<double>* ctrl_log = nullptr;
+};
+
+namespace {
+
+// What distinguishes one object list's model from another's.
+std::string objectsKey(const std::vector<ObjectKind>& objects) {
+  std::string key;
+  char buf[400];
+  for (const ObjectKind& o : objects) {
+    std::snprintf(buf, sizeof buf, "%s|%.17g %.17g %.17g|%.17g|%.17g %.17g %.17g|%d|%.9g %.9g %.9g %.9g;", o.name.c_str(),
+                  o.half_size.x(), o.half_size.y(), o.half_size.z(), o.mass, o.friction[0], o.friction[1], o.friction[2],
+                  o.condim, o.rgba[0], o.rgba[1], o.rgba[2], o.rgba[3]);
+    key += buf;
+  }
+  return key;
+}
+
+}  // namespace
+
+SimWorld::SimWorld() : shared_(std::make_unique<Shared>()) {}
 SimWorld::~SimWorld() = default;
 
-std::unique_ptr<SimWorld> SimWorld::load(const std::string& scene_xml, const RobotModel& robot) {
+std::unique_ptr<SimWorld> SimWorld::load(const std::string& scene_xml, const RobotModel& robot,
+                                         const std::vector<ObjectKind>& objects) {
   installMujocoHandlers();
   checkMjcf(scene_xml);
   std::unique_ptr<SimWorld> w(new SimWorld());
-  Impl& I = *w->impl_;
+  Shared& S = *w->shared_;
+  S.scene_xml = scene_xml;
+  S.spec = robot.spec();
+  S.joint_names = robot.jointNames();
+  S.home = robot.home();
+  w->setObjects(objects);
+  return w;
+}
+
+int SimWorld::modelsCompiled() const { return static_cast<int>(shared_->models.size()); }
+
+void SimWorld::setObjects(const std::vector<ObjectKind>& objects) {
+  Shared& S = *shared_;
+  const std::string key = objectsKey(objects);
+  auto it = S.models.find(key);
+  if (it == S.models.end()) it = S.models.emplace(key, compile(S, objects)).first;
+  if (impl_ == it->second.get()) return;
+  impl_ = it->second.get();
+  impl_->ctrl_log = S.ctrl_log;
+  reset(S.home);
+}
+
+std::unique_ptr<SimWorld::Impl> SimWorld::compile(const Shared& S, const std::vector<ObjectKind>& objects) {
+  const std::string& scene_xml = S.scene_xml;
+  auto impl = std::make_unique<Impl>();
+  Impl& I = *impl;
   // The scene with the robot mounted, compiled from memory (MuJoCo's virtual file system).
-  const std::string xml = composeScene(scene_xml, robot.spec());
+  const std::string xml = composeScene(scene_xml, S.spec, objects);
   char err[1024] = "";
   {
     auto vfs = std::make_unique<mjVFS>();
@@ -162,25 +214,25 @@ std::unique_ptr<SimWorld> SimWorld::load(const std::string& scene_xml, const Rob
       I.m = mj_loadXML(vname, vfs.get(), err, sizeof err);
     } catch (const std::runtime_error& e) {
       mj_deleteVFS(vfs.get());
-      throw InputError(scene_xml, std::string("MuJoCo rejected the scene with ") + robot.spec().name + " mounted: " + e.what());
+      throw InputError(scene_xml, std::string("MuJoCo rejected the scene with ") + S.spec.name + " mounted: " + e.what());
     }
     mj_deleteVFS(vfs.get());
   }
-  if (!I.m) throw InputError(scene_xml, std::string("MuJoCo rejected the scene with ") + robot.spec().name + " mounted: " + err);
+  if (!I.m) throw InputError(scene_xml, std::string("MuJoCo rejected the scene with ") + S.spec.name + " mounted: " + err);
   I.d = mj_makeData(I.m);
   mjModel* m = I.m;
-  const RobotSpec& spec = robot.spec();
+  const RobotSpec& spec = S.spec;
   auto need = [&](mjtObj type, const std::string& name, const char* what) {
     const int id = mj_name2id(m, type, name.c_str());
     if (id < 0) throw InputError(scene_xml, std::string("expected ") + what + " '" + name + "' (from " + spec.file + ")");
     return id;
   };
-  I.dof = robot.dof();
+  I.dof = static_cast<int>(S.joint_names.size());
   for (int i = 0; i < I.dof; ++i) {
-    const int j = need(mjOBJ_JOINT, robot.jointNames()[i], "a joint");
+    const int j = need(mjOBJ_JOINT, S.joint_names[i], "a joint");
     I.arm_qpos.push_back(m->jnt_qposadr[j]);
     I.arm_dof.push_back(m->jnt_dofadr[j]);
-    I.arm_act.push_back(need(mjOBJ_ACTUATOR, robot.jointNames()[i], "an actuator"));
+    I.arm_act.push_back(need(mjOBJ_ACTUATOR, S.joint_names[i], "an actuator"));
     I.effort.push_back(spec.joints[i].effort);
   }
   for (int k = 0; k < 2; ++k) {
@@ -206,10 +258,16 @@ std::unique_ptr<SimWorld> SimWorld::load(const std::string& scene_xml, const Rob
     I.obj_geom.push_back(m->body_geomadr[b]);
     const int eq = mj_name2id(m, mjOBJ_EQUALITY, ("attach_" + std::to_string(k)).c_str());
     I.obj_weld.push_back(eq);
-    const mjtNum* q = m->qpos0 + I.obj_qpos.back();
-    I.obj_park.push_back(makePose(Vec3(q[0], q[1], q[2]), Quat(q[3], q[4], q[5], q[6])));
   }
-  if (I.obj_body.empty()) throw InputError(scene_xml, "expected object bodies named object_0, object_1, ...");
+  // Park poses: five to a row along the object_park site's x, rows along its y, resting on its
+  // plane; without the site, far below the scene (where a parked object falls, touching nothing).
+  mj_kinematics(m, I.d);
+  const int park = mj_name2id(m, mjOBJ_SITE, "object_park");
+  const Pose T_park = park >= 0 ? poseOf(I.d->site_xpos + 3 * park, I.d->site_xmat + 9 * park) : makePose(Vec3(0, 0, -100), Mat3::Identity());
+  for (size_t k = 0; k < I.obj_body.size(); ++k) {
+    const double hz = m->geom_size[3 * I.obj_geom[k] + 2];
+    I.obj_park.push_back(T_park * makePose(Vec3(0.1 * static_cast<double>(k % 5), 0.1 * static_cast<double>(k / 5), hz + 0.001), Mat3::Identity()));
+  }
   for (int k = 0;; ++k) {
     const std::string name = "obstacle_" + std::to_string(k);
     const int b = mj_name2id(m, mjOBJ_BODY, name.c_str());
@@ -254,8 +312,7 @@ std::unique_ptr<SimWorld> SimWorld::load(const std::string& scene_xml, const Rob
   }
   I.scratch_a.resize(m->nv);
   I.scratch_b.resize(m->nv);
-  w->reset(robot.home());
-  return w;
+  return impl;
 }
 
 void SimWorld::setStiff(bool on) { impl_->stiff = on; }
@@ -264,6 +321,7 @@ void SimWorld::reset(const VecX& q_arm) {
   Impl& I = *impl_;
   I.stiff = false;
   mj_resetData(I.m, I.d);
+  for (int i = 0; i < numObjects(); ++i) parkObject(i);
   for (size_t k = 0; k < I.obj_weld.size(); ++k)
     if (I.obj_weld[k] >= 0) I.m->eq_active[I.obj_weld[k]] = 0;
   for (int i = 0; i < I.dof; ++i) I.d->qpos[I.arm_qpos[i]] = q_arm[i];
@@ -457,7 +515,7 @@ void SimWorld::stepKinematic() {
   I.monitor();
 }
 
-void SimWorld::recordControls(std::vector<double>* log) { impl_->ctrl_log = log; }
+void SimWorld::recordControls(std::vector<double>* log) { shared_->ctrl_log = impl_->ctrl_log = log; }
 
 SimWorld::State SimWorld::saveState() const {
   const Impl& I = *impl_;

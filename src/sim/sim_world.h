@@ -10,6 +10,7 @@
 
 #include "core/geometry.h"
 #include "robot/robot_model.h"
+#include "sim/object_catalogue.h"
 
 namespace mm {
 
@@ -36,9 +37,16 @@ void installMujocoHandlers();
 
 class SimWorld {
  public:
-  /// Checks a scene MJCF, mounts the robot (arm and gripper) in it (sim/scene_compose.h) and loads
-  /// the result. Throws InputError for bad files or a scene that lacks objects named object_<k>.
-  static std::unique_ptr<SimWorld> load(const std::string& scene_xml, const RobotModel& robot);
+  /// Checks a scene MJCF, mounts the robot (arm and gripper) in it, adds `objects`
+  /// (sim/scene_compose.h) and loads the result. Throws InputError for bad files.
+  static std::unique_ptr<SimWorld> load(const std::string& scene_xml, const RobotModel& robot,
+                                        const std::vector<ObjectKind>& objects = {});
+  /// Makes the model hold exactly `objects` (object_0 is objects[0], ...): the scene recomposed and
+  /// compiled on the first use of a list, kept for the next (a worker meets a few lists). The
+  /// state is then the model's initial one: call reset().
+  void setObjects(const std::vector<ObjectKind>& objects);
+  /// The models compiled so far (one per distinct object list).
+  int modelsCompiled() const;
   ~SimWorld();
   SimWorld(const SimWorld&) = delete;
   SimWorld& operator=(const SimWorld&) = delete;
@@ -57,7 +65,7 @@ class SimWorld {
   void setFingers(double opening); ///< kinematic
   Pose tcpPose() const;            ///< T_world_tcp
 
-  // Objects (a fixed pool; inactive ones are parked off the table).
+  // Objects: those setObjects() put in the model; reset() parks them all at the scene's object_park.
   int numObjects() const;
   ObjectState object(int i) const;
   Vec3 objectVelocity(int i) const;     ///< linear [m/s]
@@ -132,8 +140,11 @@ class SimWorld {
 
  private:
   SimWorld();
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
+  struct Impl;    // one compiled model and its data
+  struct Shared;  // what every model is composed from, and the compiled models
+  static std::unique_ptr<Impl> compile(const Shared& shared, const std::vector<ObjectKind>& objects);
+  std::unique_ptr<Shared> shared_;
+  Impl* impl_ = nullptr;  // the current model, owned by shared_
 };
 
 }  // namespace mm

@@ -130,7 +130,7 @@ class TrialContext {
   // What the robot knows.
   std::vector<ObjectState> objects;  ///< the last perception (world frame), objects not yet picked
   std::vector<int> picked;           ///< pool indices of objects picked (held or let go)
-  int held = -1;                     ///< pool index of the object in the hand, -1 for none
+  int held = -1;                     ///< index of the object in the hand (object_<k>), -1 for none
   Pose T_tcp_held = Pose::Identity();        ///< the held object in the hand as planned
   Pose T_tcp_held_actual = Pose::Identity(); ///< as measured when the fingers closed (drop check)
   PickRecord held_record;            ///< filled while holding, moved to out.picks on release

@@ -60,7 +60,7 @@ Result runTree(const std::string& tree, std::vector<std::string> sets, uint64_t 
   fs::create_directories(logs);
   TrialRunner runner(e, cell, doc, logs.string(), "2026-01-01 00:00:00");
   Rng rng = Rng::stream(e.seed, trial, Purpose::kScene);
-  const SpawnResult spawn = spawnObjects(*world, robot, cell.T_world_bin, cell.bin_half, rng, e.spawn);
+  const SpawnResult spawn = spawnObjects(*world, robot, cell.T_world_bin, cell.bin_half, rng, cell.spawn);
   EXPECT_TRUE(spawn.ok) << spawn.reason;
   if (arrange) arrange(*world, spawn.active);
   auto backend = e.hardware == "mock" ? makeMockHardware(*world, robot, spawn.active)

@@ -4,7 +4,9 @@
 // First recorded from the pick-and-place chain before the task layer became actions; re-recorded
 // 2026-11-23 when plans began to end (and straight lines to start) where the previous trajectory
 // ends, from the pick_place tree, `minimanip bench` showing the tree-less chain with the same
-// success and simulated time on every trial.
+// success and simulated time on every trial; re-recorded the same day when each trial's model came
+// to hold only the objects in play (no parked pool): the same success on all 100, place errors
+// within 0.029 mm, stage durations within a few steps.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>

@@ -82,7 +82,7 @@ TEST(Sweep, BadFactorsAreExitTwoBeforeAnyTrial) {
   struct Case {
     std::string args, says;
   } cases[] = {
-      {" --sweep objects.count_max=1,9", "count_max"},           // out of range
+      {" --sweep objects.count_max=1,101", "count_max"},           // out of range
       {" --sweep objects.count_max=3", "at least two values"},
       {" --sweep seed=1,2", "cannot be swept"},
       {" --sweep objects.nonsense=1,2", "nonsense"},

@@ -24,11 +24,15 @@ const RobotModel& panda() {
   return robot;
 }
 
-std::unique_ptr<SimWorld> world() {
-  auto w = SimWorld::load("scenes/bin_table.xml", panda());
-  for (int i = 0; i < w->numObjects(); ++i) w->parkObject(i);
-  return w;
+// n of the catalogue's 5 cm cubes, coloured as objects 0..n-1.
+std::vector<ObjectKind> cubes(int n) {
+  static const ObjectCatalogue c = loadObjectCatalogue("scenes/objects.yaml");
+  std::vector<ObjectKind> out;
+  for (int k = 0; k < n; ++k) out.push_back(c.asObject(*c.find("cube_5cm"), k));
+  return out;
 }
+
+std::unique_ptr<SimWorld> world() { return SimWorld::load("scenes/bin_table.xml", panda(), cubes(3)); }
 
 TEST(SimWorld, NanStateEndsAsUnstableWithAReason) {
   auto w = world();
@@ -190,7 +194,7 @@ namespace {
 // scene in radians, as written. The robot's own <compiler> is left out (the scene's rules).
 TEST(SceneCompose, JointRangesFollowTheScenesAngleUnit) {
   const RobotModel& robot = RobotModel::load("robots/panda/panda.yaml");
-  const std::string radians = composeScene("scenes/bin_table.xml", robot.spec());
+  const std::string radians = composeScene("scenes/bin_table.xml", robot.spec(), {});
   EXPECT_THAT(radians, ::testing::HasSubstr("range=\"-1.7628 1.7628\""));
   std::stringstream s;
   s << std::ifstream("scenes/bin_table.xml").rdbuf();
@@ -198,7 +202,7 @@ TEST(SceneCompose, JointRangesFollowTheScenesAngleUnit) {
   xml.replace(xml.find("angle=\"radian\""), 14, "");
   const std::string path = ::testing::TempDir() + "/degree_scene.xml";
   std::ofstream(path) << xml;
-  const std::string degrees = composeScene(path, robot.spec());
+  const std::string degrees = composeScene(path, robot.spec(), {});
   EXPECT_THAT(degrees, ::testing::HasSubstr("range=\"-101.001"));
   EXPECT_THAT(degrees, ::testing::HasSubstr("range=\"0 0.04\""));  // a finger's slide: metres
   EXPECT_EQ(degrees.find("<compiler angle=\"radian\"/>"), std::string::npos);
@@ -212,7 +216,7 @@ namespace {
 
 // A scene whose robot_mount stands 10 cm ahead, 5 cm to the right and turned 20 deg: the composed
 // model's frame is the robot's base, so the scene's sites are where the inverse mount puts them,
-// the static parts still count as the world's (collisions), and the free objects are moved too.
+// the static parts still count as the world's (collisions), and the parked objects are moved too.
 TEST(SceneCompose, AMovedMountMovesTheSceneIntoTheBaseFrame) {
   std::stringstream s;
   s << std::ifstream("scenes/bin_table.xml").rdbuf();
@@ -225,8 +229,9 @@ TEST(SceneCompose, AMovedMountMovesTheSceneIntoTheBaseFrame) {
                   std::to_string(std::sin(yaw / 2)) + "\"");
   const std::string path = ::testing::TempDir() + "/moved_mount.xml";
   std::ofstream(path) << xml;
-  auto plain = SimWorld::load("scenes/bin_table.xml", panda());
-  auto moved = SimWorld::load(path, panda());
+  auto plain = SimWorld::load("scenes/bin_table.xml", panda(), cubes(3));
+  auto moved = SimWorld::load(path, panda(), cubes(3));
+  ASSERT_EQ(moved->numObjects(), 3);
   const Pose M = makePose(Vec3(0.1, -0.05, 0), Eigen::AngleAxisd(yaw, Vec3::UnitZ()).toRotationMatrix());
   for (const char* site : {"bin_region", "place_target"}) {
     const Pose expected = M.inverse() * plain->site(site).first;
