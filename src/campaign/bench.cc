@@ -21,7 +21,7 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
   Experiment e = experiment;
   e.bt_log = "all";  // the tree's cost is measured with every trial's SQLite log written
   const RobotModel robot = loadExperimentRobot(e);
-  auto world = SimWorld::load(e.scene_path, robot);
+  auto world = loadWorld(e, robot);
   const Cell cell = makeCell(e, robot, *world);
   const bt::TreeDocument tree = loadTree(e);
   const std::filesystem::path logs = std::filesystem::temp_directory_path() / ("minimanip_bench_" + std::to_string(getpid()));
@@ -32,6 +32,7 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
 
   double wall_full = 0, wall_tree = 0, wall_chain = 0, sim_task = 0, wall_replay = 0, sim_replay = 0;
   double wall_pool = 0, sim_pool = 0;  // the same controls on the old model: six cubes, those out of play parked
+  SimWorld::ReplayCounts counts_new, counts_pool;
   SpawnOptions pooled = cell.spawn;
   pooled.pool = std::max(6, cell.spawn.count_max);
   long ok = 0, same = 0, steps = 0, trials = 0;
@@ -73,15 +74,29 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
 
     world->restoreState(start);
     const auto t5 = Clock::now();
-    sim_replay += world->replayControls(log);
+    sim_replay += world->replayControls(log, &counts_new);
     wall_replay += secs(t5, Clock::now());
     steps += static_cast<long>(log.size() / world->controlsPerStep());
 
+    // The same trial on today's model: the parked pool and the scene's own numerics. Controls are
+    // held through a control period, so a log at a finer timestep is thinned to the scene's.
+    const int stride = static_cast<int>(std::lround(kControlPeriod / world->timestep()));
+    world->setPhysics(PhysicsOptions{}, e.file);
+    const int pool_stride = static_cast<int>(std::lround(kControlPeriod / world->timestep()));
+    const int nu = world->controlsPerStep();
+    const std::vector<double>* pool_log = &log;
+    std::vector<double> thinned;
+    if (stride != pool_stride) {
+      for (size_t k = 0; k + nu <= log.size(); k += static_cast<size_t>(nu) * stride / pool_stride)
+        thinned.insert(thinned.end(), log.begin() + static_cast<long>(k), log.begin() + static_cast<long>(k) + nu);
+      pool_log = &thinned;
+    }
     Rng rng3 = Rng::stream(e.seed, i, Purpose::kScene);
     spawnObjects(*world, robot, cell.T_world_bin, cell.bin_half, rng3, pooled);
     const auto t6 = Clock::now();
-    sim_pool += world->replayControls(log);
+    sim_pool += world->replayControls(*pool_log, &counts_pool);
     wall_pool += secs(t6, Clock::now());
+    world->setPhysics(e.physics, e.file);
   }
   std::filesystem::remove_all(logs);
   const double wall_total = secs(t_all, Clock::now());
@@ -110,12 +125,23 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
   o << "  full trials (spawn + settle + tree + evaluate): " << trials / wall_full << " trials/s\n";
   o << "  task through the tree:                          " << sim_task / wall_tree << " simulated s per wall s ("
     << sim_task << " sim s in " << wall_tree << " s)\n";
+  auto per_step = [](const SimWorld::ReplayCounts& k) {
+    std::ostringstream t;
+    t.setf(std::ios::fixed);
+    t.precision(1);
+    const double n = static_cast<double>(std::max(1L, k.steps));
+    t << static_cast<double>(k.dof) / n << " dof; per step " << k.contacts / n << " contacts, " << k.rows / n << " constraint rows, " << k.iterations / n
+      << " solver iterations";
+    return t.str();
+  };
   o << "  pure MuJoCo, same scenes and controls:          " << sim_replay / wall_replay << " simulated s per wall s ("
-    << sim_replay << " sim s, " << steps << " steps in " << wall_replay << " s)\n";
-  o << "  bare stepping, objects in play only:            " << steps / wall_replay << " steps/s\n";
-  o << "  bare stepping, the parked-pool model (" << pooled.pool << " cubes):    " << steps / wall_pool
-    << " steps/s (the same controls, " << sim_pool << " sim s)\n";
-  o << "  speed-up of the model over the parked pool:     " << wall_pool / wall_replay << "x\n";
+    << sim_replay << " sim s, " << steps << " steps in " << wall_replay << " s: " << steps / wall_replay << " steps/s)\n"
+    << "    the model holds the objects in play only: " << per_step(counts_new) << "\n";
+  o << "  the same on the parked-pool model:              " << sim_pool / wall_pool << " simulated s per wall s ("
+    << counts_pool.steps / wall_pool << " steps/s)\n"
+    << "    " << pooled.pool << " cubes, those out of play parked on the floor, the scene's numerics: " << per_step(counts_pool) << "\n";
+  o << "  physics speed-up over the parked-pool model:    " << (sim_replay / wall_replay) / (sim_pool / wall_pool)
+    << "x (simulated s per wall s, same trials, same controls)\n";
   o.precision(3);
   o << "  harness overhead (tree run wall / pure stepping wall for the same simulated time): "
     << (wall_tree / sim_task) / (wall_replay / sim_replay) << "x\n\n";

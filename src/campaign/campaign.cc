@@ -130,6 +130,7 @@ std::string summaryTable(const CampaignSummary& s) {
   t << std::string(64, '-') << "\n" << std::setprecision(2);
   t << "  Place Error:       " << s.place_mm_mean << " mm (mean), " << s.place_mm_max << " mm (max); " << s.orient_deg_mean
     << " deg (mean)\n";
+  t << "  In-hand Slip:      " << s.slip_mm_mean << " mm (mean), " << s.slip_mm_max << " mm (max), grasp to release\n";
   t << "  Collisions:        " << s.collision_events << " events in " << n << " trials\n";
   t << "  Objects placed:    " << s.objects_placed << " (" << s.objects_left_in_bin << " left in bins; " << s.bins_cleared << " of "
     << n << " bins empty)\n";
@@ -476,7 +477,7 @@ int runWorker(const Experiment& e, const std::string& out_dir) {
   if (!to_supervisor) return 1;
   const fs::path out(out_dir);
   const RobotModel robot = loadExperimentRobot(e);
-  auto world = SimWorld::load(e.scene_path, robot);
+  auto world = loadWorld(e, robot);
   const Cell cell = makeCell(e, robot, *world);
   const bt::TreeDocument tree = loadTree(e);
   const json meta = json::parse(std::ifstream(out / "campaign.json"));
@@ -509,7 +510,7 @@ int runWorker(const Experiment& e, const std::string& out_dir) {
 
 void checkCampaignInput(const Experiment& e) {
   const RobotModel robot = loadExperimentRobot(e);
-  const auto world = SimWorld::load(e.scene_path, robot);
+  const auto world = loadWorld(e, robot);
   makeCell(e, robot, *world);
   loadTree(e);
 }

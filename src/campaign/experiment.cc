@@ -36,6 +36,9 @@ void Experiment::declare(ConfigArchive& a) {
   a.enter("objects");
   spawn.declare(a);
   a.leave();
+  a.enter("physics");
+  physics.declare(a);
+  a.leave();
   a.enter("perception");
   perception.declare(a);
   a.leave();

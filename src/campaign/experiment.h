@@ -12,6 +12,7 @@
 #include "core/params.h"
 #include "perception/perception.h"
 #include "sim/scene_sampler.h"
+#include "sim/sim_world.h"
 #include "task/pick_place.h"
 
 namespace mm {
@@ -37,6 +38,7 @@ struct Experiment {
   std::string progress = "auto";  ///< "auto" | "bar" | "lines" | "none"
   std::string bt_log = "failed_or_recovered";  ///< "none" | "failed_or_recovered" | "all": trials that keep a .db3
   SpawnOptions spawn;
+  PhysicsOptions physics;
   PerceptionOptions perception;
   TaskOptions task;
   bt::TreeRunOptions tree_run;

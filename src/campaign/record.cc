@@ -52,12 +52,14 @@ void TrialRecord::describe(RecordArchive& a) {
   a.field("compute_time", o.compute_time, "s", "wall time of the blocking computation");
   a.field("place_position_error", o.place_position_error, "m", "horizontal, the worst placed object");
   a.field("place_orientation_error", o.place_orientation_error, "rad", "about the object's symmetry, the worst placed object");
+  a.field("in_hand_slip", o.in_hand_slip, "m",
+          "the most a placed object moved in the hand from the fingers closing to their opening (the simulator's truth, never used by the pipeline)");
   a.field("collision_count", o.collision_count, "", "episodes of robot contact with the table, bins or tray");
   a.field("collision_log", o.collision_log, "", "which geom hit what, when");
   a.field("max_tracking_error", o.max_tracking_error, "rad", "max over samples and joints of |commanded - measured|");
   a.field("collision_checks", o.collision_checks, "", "planning collision checks");
   a.field("max_external_force", o.max_external_force, "N",
-          "the largest external contact force on an arm link or the hand (held object's weight included; 0 on mock)");
+          "the largest external contact force on an arm link or the hand sustained for two control periods, as the protective stop sees it (held object's weight included; 0 on mock)");
   a.field("non_target_contacts", o.non_target_contacts, "", "episodes of the robot touching an object it was not picking or holding");
   a.field("neighbours_moved", o.neighbours_moved, "m", "the farthest an object moved while another was picked (pushes aside)");
   a.object("recovery", [&](RecordArchive& r) {
@@ -84,6 +86,7 @@ void TrialRecord::describe(RecordArchive& a) {
     p.field("grasp_candidates_tried", k.grasp_candidates_tried, "", "for this object");
     p.field("grasp_opening", k.grasp_opening, "m", "per finger when it was grasped");
     p.field("neighbours_moved", k.neighbours_moved, "m", "the farthest another object moved while this one was picked");
+    p.field("in_hand_slip", k.in_hand_slip, "m", "how far it moved in the hand from the fingers closing to their opening (0: not let go of by a release)");
     p.field("first_pass", k.first_pass, "", "let go of at its target with no failure recorded since the previous object was");
     p.field("reason", k.reason, "", "why it is not placed");
   }, "every object let go of, in order");
@@ -180,6 +183,10 @@ void CampaignSummary::describe(RecordArchive& a) {
   a.object("place_position_error_mm", [&](RecordArchive& c) {
     c.field("mean", place_mm_mean, "mm", "over successes");
     c.field("max", place_mm_max, "mm", "");
+  }, "");
+  a.object("in_hand_slip_mm", [&](RecordArchive& c) {
+    c.field("mean", slip_mm_mean, "mm", "over successes");
+    c.field("max", slip_mm_max, "mm", "");
   }, "");
   a.object("place_orientation_error_deg", [&](RecordArchive& c) {
     c.field("mean", orient_deg_mean, "deg", "over successes");
@@ -464,6 +471,7 @@ void SummaryBuilder::add(const TrialRecord& r) {
   cycle_.add(o.total_time);
   sim_.add(o.sim_time);
   place_mm_.add(1000.0 * o.place_position_error);
+  slip_mm_.add(1000.0 * o.in_hand_slip);
   orient_deg_.add(180.0 / M_PI * o.place_orientation_error);
   parts_["perception_time"].add(o.perception_time);
   parts_["plan_pick_time"].add(o.plan_pick_time);
@@ -510,7 +518,7 @@ CampaignSummary SummaryBuilder::get() const {
     s.object_first_pass_ci95 = {ql, qh};
   }
   s.recovery_rate = s.recoveries_needed ? double(s.recovered) / s.recoveries_needed : -1;
-  const Moments c = cycle_.get(), m = sim_.get(), pm = place_mm_.get(), od = orient_deg_.get();
+  const Moments c = cycle_.get(), m = sim_.get(), pm = place_mm_.get(), od = orient_deg_.get(), sl = slip_mm_.get();
   s.cycle_mean = c.mean, s.cycle_std = c.std, s.cycle_max = c.max;
   s.sim_mean = m.mean, s.sim_std = m.std, s.sim_max = m.max;
   s.throughput_per_hour = all_time > 0 ? 3600.0 * s.objects_placed / all_time : 0.0;
@@ -521,6 +529,7 @@ CampaignSummary SummaryBuilder::get() const {
     s.breakdown[k] = it == parts_.end() ? 0.0 : it->second.get().mean;
   }
   s.place_mm_mean = pm.mean, s.place_mm_max = pm.max;
+  s.slip_mm_mean = sl.mean, s.slip_mm_max = sl.max;
   s.orient_deg_mean = od.mean, s.orient_deg_max = od.max;
   s.collisions_per_100 = n ? 100.0 * s.collision_events / n : 0.0;
   return s;

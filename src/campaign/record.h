@@ -82,6 +82,7 @@ struct CampaignSummary {
   double throughput_per_hour = 0, time_per_pick = 0;
   std::map<std::string, double> breakdown;  ///< mean over successes [s]
   double place_mm_mean = 0, place_mm_max = 0, orient_deg_mean = 0, orient_deg_max = 0;
+  double slip_mm_mean = 0, slip_mm_max = 0;
   long collision_events = 0;
   double collisions_per_100 = 0, max_tracking_error = 0;
   long sim_unstable = 0, dropped = 0, objects_placed = 0, objects_left_in_bin = 0, bins_cleared = 0, timeouts = 0;
@@ -114,7 +115,7 @@ class SummaryBuilder {
 
  private:
   CampaignSummary s_;
-  ExactMoments cycle_, sim_, place_mm_, orient_deg_;
+  ExactMoments cycle_, sim_, place_mm_, orient_deg_, slip_mm_;
   std::map<std::string, ExactMoments> parts_, mttr_;
   std::map<std::string, FaultStats> kinds_;
   Int128 all_time_ = 0, sim_total_ = 0;

@@ -63,6 +63,12 @@ TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial
   return out;
 }
 
+std::unique_ptr<SimWorld> loadWorld(const Experiment& e, const RobotModel& robot) {
+  auto world = SimWorld::load(e.scene_path, robot);
+  world->setPhysics(e.physics, e.file);
+  return world;
+}
+
 Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& world) {
   Cell c;
   c.robot = &robot;

@@ -29,6 +29,9 @@ struct Cell {
   SpawnOptions spawn;  ///< the experiment's, its object catalogue loaded
 };
 
+/// The experiment's scene with its robot mounted and its physics options applied.
+std::unique_ptr<SimWorld> loadWorld(const Experiment& e, const RobotModel& robot);
+
 /// The cell of experiment `e` as the scene describes it (sites bin_region and place_target) with
 /// the experiment's object catalogue. Throws InputError for an unreadable catalogue or unknown kind.
 Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& world);

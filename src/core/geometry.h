@@ -18,10 +18,11 @@ struct Obstacle {
 
 /// A graspable object in the world (ground truth or perceived).
 struct ObjectState {
-  int index = -1;  ///< index in the scene's object pool
+  int index = -1;  ///< its index k (object_<k> of the trial's model)
   std::string name;
   Pose T_world_object = Pose::Identity();
   Vec3 half_size = Vec3::Zero();  ///< box half sizes [m]
+  double mass = 0;                ///< [kg] its kind's nominal mass (a real cell's item master data)
 };
 
 }  // namespace mm

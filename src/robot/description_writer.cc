@@ -146,9 +146,15 @@ std::string writeMjcf(const RobotSpec& spec) {
   o << "      <joint damping=\"" << num(spec.damping) << "\" armature=\"" << num(spec.armature) << "\"/>\n";
   o << "      <default class=\"" << spec.name << "_col\">\n";
   o << "        <geom rgba=\"0.92 0.92 0.95 1\" friction=\"0.6 0.005 0.0001\"/>\n      </default>\n";
+  // The pads' solref and solimp govern their contacts (solmix: MuJoCo otherwise averages them with
+  // the other geom's, a scene object's default 0.02 s). MuJoCo's friction holds by damping the
+  // sliding velocity alone, at b = 2 / (dmax timeconst), and its constraints leave out the
+  // velocity-product acceleration (J'qdot) of a hand swung on the arm: a held object creeps along
+  // the pads at about J'qdot / b. 0.004 s (2 timesteps, the stiffest MuJoCo allows) and dmax 0.99
+  // creep a fifth of the averaged 0.012 s.
   o << "      <default class=\"" << spec.name << "_pad\">\n";
   o << "        <geom rgba=\"0.2 0.2 0.2 1\" condim=\"4\" friction=\"" << num(g.pad_friction)
-    << " 0.02 0.0001\" solref=\"0.004 1\" solimp=\"0.95 0.99 0.001\"/>\n      </default>\n";
+    << " 0.02 0.0001\" solref=\"0.004 1\" solimp=\"0.95 0.99 0.001\" solmix=\"1000\"/>\n      </default>\n";
   o << "    </default>\n  </default>\n\n  <worldbody>\n";
   std::string ind = "    ";
   o << ind << "<body name=\"" << spec.links[0].name << "\" childclass=\"" << spec.name << "\">\n";

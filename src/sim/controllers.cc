@@ -52,7 +52,9 @@ bool TrajectoryMotion::command(Hardware& hw) {
     streaming_ = false;
   }
   const VecX q_end = traj_.q.col(n - 1);
-  if (!(t_settle_ < settle_) ||
+  // After a stop the arm is always held until still (at most 0.3 s), whatever comes next.
+  const double settle = pending_.ok() ? settle_ : std::max(settle_, 0.3);
+  if (!(t_settle_ < settle) ||
       (hw.jointVelocities().cwiseAbs().maxCoeff() < 1e-3 && (q_end - hw.jointPositions()).cwiseAbs().maxCoeff() < 1e-3)) {
     if (pending_.ok()) succeed(hw);
     else fail(hw, pending_);
@@ -86,11 +88,14 @@ void TrajectoryMotion::observe(Hardware& hw) {
       traj_ = JointTrajectory::startingAt(hw.jointPositions(), 1, traj_.dt);
       streaming_ = false;
       k_ = 0;
-    } else if (force > force_limit_) {
+    } else if (std::min(force, last_force_) > force_limit_) {
+      // Past the limit for two control periods (4 ms), as a robot's collision reflex acts on a
+      // filtered force estimate: a contact's one-step impulse (a stiff pad meeting a cube) is not a collision.
       pending_ = {"", FailureKind::kContactForce,
                   "protective stop: " + std::to_string(force) + " N of contact force (limit " + std::to_string(force_limit_) + " N)"};
       stop(hw);
     }
+    last_force_ = force;
   }
   if (monitor_ && pending_.ok()) {
     pending_ = monitor_();

@@ -83,6 +83,7 @@ class TrajectoryMotion final : public Motion {
   StepMonitor monitor_;
   const RobotModel& robot_;
   double settle_, path_tolerance_, force_limit_;
+  double last_force_ = 0;  // the previous period's external force [N]
   bool guarded_ = false, touched_down_ = false;
   int k_ = 0;            // the sample the joints were last sent to
   bool streaming_ = true;

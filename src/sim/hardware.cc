@@ -15,7 +15,7 @@ class HardwareBase : public Hardware {
     q_cmd_ = w.armPositions();
   }
   double time() const override { return w_.time(); }
-  double period() const override { return w_.timestep(); }
+  double period() const override { return w_.controlPeriod(); }
   VecX jointPositions() const override { return w_.armPositions(); }
   double gripperOpening() const override { return w_.fingerOpening(); }
   void write(const VecX& q, const VecX& qd, const VecX& qdd) override { q_cmd_ = q, qd_cmd_ = qd, qdd_cmd_ = qdd; }
@@ -65,6 +65,7 @@ class MujocoHardware final : public HardwareBase {
   VecX q_ref_, qd_ref_;
   void attach(int i, bool on) override { w_.setWeld(i, on); }
   void setStiff(bool on) override { w_.setStiff(on); }
+  void setPayload(double mass, const Vec3& com_tcp) override { w_.setPayload(mass, com_tcp); }
 };
 
 // Joints follow commands exactly; the fingers move at their speed limit and stop on an object;
@@ -80,6 +81,7 @@ class MockHardware final : public HardwareBase {
   double handForce() const override { return 0; }
   void attach(int, bool) override {}  // a held object already moves with the hand
   void setStiff(bool) override {}     // joints follow commands exactly
+  void setPayload(double, const Vec3&) override {}
 
   void step() override {
     const Pose T_before = w_.tcpPose();

@@ -38,6 +38,9 @@ class Hardware {
   virtual void attach(int i, bool on) = 0;
   /// A high joint impedance for a contact task (a push) on or off.
   virtual void setStiff(bool on) = 0;
+  /// The payload the servo compensates, as Franka's setLoad: `mass` [kg] with its centre at
+  /// `com_tcp` in the TCP frame; mass 0 clears it.
+  virtual void setPayload(double mass, const Vec3& com_tcp) = 0;
 
   /// Ground truth, used by the ground-truth perception mode and by the evaluation.
   virtual std::vector<ObjectState> objects() const = 0;
@@ -80,6 +83,7 @@ class ForwardingHardware : public Hardware {
   void step() override { in_.step(); }
   void attach(int i, bool on) override { in_.attach(i, on); }
   void setStiff(bool on) override { in_.setStiff(on); }
+  void setPayload(double mass, const Vec3& com_tcp) override { in_.setPayload(mass, com_tcp); }
   std::vector<ObjectState> objects() const override { return in_.objects(); }
   ObjectState object(int i) const override { return in_.object(i); }
   Vec3 objectVelocity(int i) const override { return in_.objectVelocity(i); }

@@ -126,7 +126,7 @@ SpawnResult spawnObjects(SimWorld& w, const RobotModel& robot, const Pose& T_reg
       r.reason = "objects interpenetrate at spawn";
       continue;
     }
-    for (double t = 0; t < o.settle_time; t += w.timestep()) {
+    for (double t = 0; t < o.settle_time; t += w.controlPeriod()) {
       w.stepServo(robot.home(), zero, zero, robot.spec().gripper.travel, robot.spec().gripper.max_force);
       if (w.unstable()) break;
     }

@@ -77,6 +77,8 @@ struct SimWorld::Impl {
   int robot_root = -1;
   ServoGains gains;
   bool stiff = false;
+  double payload_mass = 0;
+  Vec3 payload_tcp = Vec3::Zero();
   double finger_ramp[2] = {0, 0};
   double finger_vmax = 0.2;
   // monitors
@@ -87,8 +89,10 @@ struct SimWorld::Impl {
   bool unstable = false;
   std::string instability;
   // scratch
-  std::vector<mjtNum> scratch_a, scratch_b;
+  std::vector<mjtNum> scratch_a, scratch_b, scratch_jac;
   std::vector<double>* ctrl_log = nullptr;
+  int substeps = 1;  ///< physics steps per control period
+  mjOption scene_option;  ///< the scene's own numerics, before any PhysicsOptions
 
   ~Impl() {
     if (d) mj_deleteData(d);
@@ -144,6 +148,8 @@ struct SimWorld::Shared {
   VecX home;
   std::map<std::string, std::unique_ptr<Impl>> models;  // by object list
   std::vector<double>* ctrl_log = nullptr;
+  PhysicsOptions physics;
+  std::string physics_file;  // where the physics options came from, for errors
 };
 
 namespace {
@@ -180,13 +186,64 @@ std::unique_ptr<SimWorld> SimWorld::load(const std::string& scene_xml, const Rob
   return w;
 }
 
+void PhysicsOptions::declare(ConfigArchive& a) {
+  a.value("timestep", timestep, {0, kControlPeriod}, "s",
+          "physics timestep; 0: the scene's. It must divide the control period (2 ms, 500 Hz), which stays the same: "
+          "the servo's torques are held through the substeps");
+  // Not RK4: the servo computes its torques between mj_step1 and mj_step2 (from the current state's
+  // inertia), and MuJoCo runs that split step with Euler whatever the option says.
+  a.choice("integrator", integrator, {"scene", "Euler", "implicit"},
+           "MuJoCo's integrator; scene: the scene's (RK4 is not offered: MuJoCo's split step, which the servo needs, runs it as Euler)");
+  a.choice("cone", cone, {"scene", "pyramidal", "elliptic"}, "MuJoCo's friction cone; scene: the scene's");
+  a.choice("jacobian", jacobian, {"scene", "dense", "sparse", "auto"}, "MuJoCo's constraint Jacobian; scene: the scene's");
+  a.choice("solver", solver, {"scene", "PGS", "CG", "Newton"}, "MuJoCo's constraint solver; scene: the scene's");
+  a.value("iterations", iterations, {0, 1000}, "", "the solver's maximum iterations; 0: the scene's");
+  a.value("tolerance", tolerance, {-1, 1}, "", "the solver's tolerance (0: run all iterations); -1: the scene's");
+  a.value("noslip_iterations", noslip_iterations, {-1, 1000}, "", "MuJoCo's no-slip iterations; -1: the scene's");
+}
+
+void SimWorld::applyPhysics(Impl& I, const PhysicsOptions& p, const std::string& file) {
+  mjOption& o = I.m->opt;
+  o = I.scene_option;
+  if (p.timestep > 0) o.timestep = p.timestep;
+  auto pick = [](const std::string& v, std::initializer_list<std::pair<const char*, int>> names, int keep) {
+    for (const auto& [n, value] : names)
+      if (v == n) return value;
+    return keep;
+  };
+  o.integrator = pick(p.integrator, {{"Euler", mjINT_EULER}, {"implicit", mjINT_IMPLICIT}}, o.integrator);
+  o.cone = pick(p.cone, {{"pyramidal", mjCONE_PYRAMIDAL}, {"elliptic", mjCONE_ELLIPTIC}}, o.cone);
+  o.jacobian = pick(p.jacobian, {{"dense", mjJAC_DENSE}, {"sparse", mjJAC_SPARSE}, {"auto", mjJAC_AUTO}}, o.jacobian);
+  o.solver = pick(p.solver, {{"PGS", mjSOL_PGS}, {"CG", mjSOL_CG}, {"Newton", mjSOL_NEWTON}}, o.solver);
+  if (p.iterations > 0) o.iterations = p.iterations;
+  if (p.tolerance >= 0) o.tolerance = p.tolerance;
+  if (p.noslip_iterations >= 0) o.noslip_iterations = p.noslip_iterations;
+  const double n = kControlPeriod / o.timestep;
+  if (!(o.timestep > 0) || std::abs(n - std::round(n)) > 1e-9 * n) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "physics timestep %g s does not divide the control period %g s (500 Hz): expected 0.002, 0.001, 0.0005, ...",
+                  o.timestep, kControlPeriod);
+    throw InputError(file, buf);
+  }
+  I.substeps = static_cast<int>(std::lround(n));
+}
+
+void SimWorld::setPhysics(const PhysicsOptions& physics, const std::string& file) {
+  shared_->physics = physics;
+  shared_->physics_file = file;
+  for (auto& [key, model] : shared_->models) applyPhysics(*model, physics, file);
+}
+
 int SimWorld::modelsCompiled() const { return static_cast<int>(shared_->models.size()); }
 
 void SimWorld::setObjects(const std::vector<ObjectKind>& objects) {
   Shared& S = *shared_;
   const std::string key = objectsKey(objects);
   auto it = S.models.find(key);
-  if (it == S.models.end()) it = S.models.emplace(key, compile(S, objects)).first;
+  if (it == S.models.end()) {
+    it = S.models.emplace(key, compile(S, objects)).first;
+    applyPhysics(*it->second, S.physics, S.physics_file.empty() ? S.scene_xml : S.physics_file);
+  }
   if (impl_ == it->second.get()) return;
   impl_ = it->second.get();
   impl_->ctrl_log = S.ctrl_log;
@@ -220,6 +277,7 @@ std::unique_ptr<SimWorld::Impl> SimWorld::compile(const Shared& S, const std::ve
   }
   if (!I.m) throw InputError(scene_xml, std::string("MuJoCo rejected the scene with ") + S.spec.name + " mounted: " + err);
   I.d = mj_makeData(I.m);
+  I.scene_option = I.m->opt;
   mjModel* m = I.m;
   const RobotSpec& spec = S.spec;
   auto need = [&](mjtObj type, const std::string& name, const char* what) {
@@ -317,9 +375,15 @@ std::unique_ptr<SimWorld::Impl> SimWorld::compile(const Shared& S, const std::ve
 
 void SimWorld::setStiff(bool on) { impl_->stiff = on; }
 
+void SimWorld::setPayload(double mass, const Vec3& com_tcp) {
+  impl_->payload_mass = mass;
+  impl_->payload_tcp = com_tcp;
+}
+
 void SimWorld::reset(const VecX& q_arm) {
   Impl& I = *impl_;
   I.stiff = false;
+  I.payload_mass = 0;
   mj_resetData(I.m, I.d);
   for (int i = 0; i < numObjects(); ++i) parkObject(i);
   for (size_t k = 0; k < I.obj_weld.size(); ++k)
@@ -339,6 +403,7 @@ void SimWorld::reset(const VecX& q_arm) {
 
 double SimWorld::time() const { return impl_->d->time; }
 double SimWorld::timestep() const { return impl_->m->opt.timestep; }
+double SimWorld::controlPeriod() const { return kControlPeriod; }
 const ServoGains& SimWorld::gains() const { return impl_->gains; }
 
 VecX SimWorld::armPositions() const {
@@ -388,6 +453,7 @@ ObjectState SimWorld::object(int i) const {
   o.T_world_object = makePose(Vec3(q[0], q[1], q[2]), Quat(q[3], q[4], q[5], q[6]));
   const mjtNum* s = I.m->geom_size + 3 * I.obj_geom[i];
   o.half_size = Vec3(s[0], s[1], s[2]);
+  o.mass = I.m->body_mass[I.obj_body[i]];
   return o;
 }
 
@@ -483,12 +549,27 @@ void SimWorld::stepServo(const VecX& q, const VecX& qd, const VecX& qdd, double 
     I.scratch_a[I.arm_dof[i]] = qdd[i] + kp * e + kd * ed;
   }
   mj_mulM(m, d, I.scratch_b.data(), I.scratch_a.data());
+  if (I.payload_mass > 0) {
+    // The payload the model of the arm does not hold: tau += J_com^T m (a_cmd - g), J_com the
+    // translational Jacobian at its centre (fixed in the hand), a_cmd = J_com qdd (the feed-forward).
+    const Pose T_tcp = poseOf(d->site_xpos + 3 * I.tcp_site, d->site_xmat + 9 * I.tcp_site);
+    const Vec3 p = T_tcp * I.payload_tcp;
+    const mjtNum point[3] = {p.x(), p.y(), p.z()};
+    I.scratch_jac.resize(3 * static_cast<size_t>(m->nv));
+    mj_jac(m, d, I.scratch_jac.data(), nullptr, point, I.hand_body);
+    Vec3 a = Vec3::Zero();
+    for (int r = 0; r < 3; ++r)
+      for (int i = 0; i < I.dof; ++i) a[r] += I.scratch_jac[r * m->nv + I.arm_dof[i]] * qdd[i];
+    const Vec3 F = I.payload_mass * (a - Vec3(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]));
+    for (int i = 0; i < I.dof; ++i)
+      for (int r = 0; r < 3; ++r) I.scratch_b[I.arm_dof[i]] += I.scratch_jac[r * m->nv + I.arm_dof[i]] * F[r];
+  }
   for (int i = 0; i < I.dof; ++i) {
     const double tau = I.scratch_b[I.arm_dof[i]] + d->qfrc_bias[I.arm_dof[i]] - d->qfrc_passive[I.arm_dof[i]];
     d->ctrl[I.arm_act[i]] = std::clamp(tau, -I.effort[i], I.effort[i]);
   }
   // Fingers: a target ramped at the finger speed limit, PD force clamped to the force limit.
-  const double dt = m->opt.timestep;
+  const double dt = kControlPeriod;
   for (int k = 0; k < 2; ++k) {
     const double step = I.finger_vmax * dt;
     double& r = I.finger_ramp[k];
@@ -497,20 +578,24 @@ void SimWorld::stepServo(const VecX& q, const VecX& qd, const VecX& qdd, double 
     const double f = I.gains.finger_kp * (r - d->qpos[I.finger_qpos[k]]) + I.gains.finger_kd * (vref - d->qvel[I.finger_dof[k]]);
     d->ctrl[I.finger_act[k]] = std::clamp(f, -finger_force, finger_force);
   }
-  if (I.ctrl_log) I.ctrl_log->insert(I.ctrl_log->end(), d->ctrl, d->ctrl + m->nu);
-  try {
-    mj_step2(m, d);
-  } catch (const std::runtime_error& e) {
-    I.unstable = true;
-    I.instability = e.what();
-    return;
+  // The torques held through the period's physics substeps (a digital controller's zero-order hold).
+  for (int sub = 0; sub < I.substeps; ++sub) {
+    if (I.ctrl_log) I.ctrl_log->insert(I.ctrl_log->end(), d->ctrl, d->ctrl + m->nu);
+    try {
+      if (sub == 0) mj_step2(m, d);
+      else mj_step(m, d);
+    } catch (const std::runtime_error& e) {
+      I.unstable = true;
+      I.instability = e.what();
+      return;
+    }
+    I.monitor();  // contacts found by this step's collision pass (state at the step's start)
   }
-  I.monitor();  // contacts found by this step's collision pass (state at the step's start)
 }
 
 void SimWorld::stepKinematic() {
   Impl& I = *impl_;
-  I.d->time += I.m->opt.timestep;
+  I.d->time += kControlPeriod;
   mj_fwdPosition(I.m, I.d);
   I.monitor();
 }
@@ -532,12 +617,19 @@ void SimWorld::restoreState(const State& s) {
 
 int SimWorld::controlsPerStep() const { return impl_->m->nu; }
 
-double SimWorld::replayControls(const std::vector<double>& log) {
+double SimWorld::replayControls(const std::vector<double>& log, ReplayCounts* counts) {
   Impl& I = *impl_;
   const double t0 = I.d->time;
   for (size_t k = 0; k + I.m->nu <= log.size(); k += I.m->nu) {
     std::copy(log.begin() + k, log.begin() + k + I.m->nu, I.d->ctrl);
     mj_step(I.m, I.d);
+    if (counts) {
+      ++counts->steps;
+      counts->contacts += I.d->ncon;
+      counts->rows += I.d->nefc;
+      counts->iterations += I.d->solver_iter;
+      counts->dof += I.m->nv;
+    }
   }
   return I.d->time - t0;
 }

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "core/config.h"
 #include "core/geometry.h"
 #include "robot/robot_model.h"
 #include "sim/object_catalogue.h"
@@ -28,6 +29,24 @@ struct ServoGains {
   double finger_kp = 2000.0;  ///< [N/m]
   double finger_kd = 8.0;     ///< [N s/m]
 };
+
+/// The simulator's numerics, each overriding the scene's <option> when set (section "physics").
+/// The servo's control period stays 2 ms (500 Hz) whatever the timestep: a shorter timestep is
+/// substepped with the control held (a digital controller's zero-order hold).
+struct PhysicsOptions {
+  void declare(ConfigArchive& a);
+  double timestep = 0;             ///< [s] 0: the scene's; else it must divide the control period
+  std::string integrator = "scene";  ///< scene | Euler | implicit (not RK4: the split step runs it as Euler)
+  std::string cone = "scene";        ///< scene | pyramidal | elliptic
+  std::string jacobian = "scene";    ///< scene | dense | sparse | auto
+  std::string solver = "scene";      ///< scene | PGS | CG | Newton
+  int iterations = 0;                ///< 0: the scene's
+  double tolerance = -1;             ///< < 0: the scene's
+  int noslip_iterations = -1;        ///< < 0: the scene's
+};
+
+/// [s] The servo's control period (500 Hz), whatever the physics timestep.
+constexpr double kControlPeriod = 0.002;
 
 /// MuJoCo's version, e.g. "2.2.2".
 std::string mujocoVersion();
@@ -54,7 +73,11 @@ class SimWorld {
   /// Back to the model's initial state, arm at q (dim dof), fingers open, monitors cleared.
   void reset(const VecX& q_arm);
   double time() const;        ///< simulated time [s]
-  double timestep() const;    ///< [s]
+  double timestep() const;    ///< [s] the physics timestep
+  double controlPeriod() const;  ///< [s] one stepServo / stepKinematic: kControlPeriod
+  /// Applies `physics` to every model, now and compiled later. Throws InputError (naming `file`)
+  /// for a timestep that does not divide the control period.
+  void setPhysics(const PhysicsOptions& physics, const std::string& file);
 
   // Arm and fingers.
   VecX armPositions() const;
@@ -85,11 +108,12 @@ class SimWorld {
   /// Height [m] of the first surface below point p, ignoring object `exclude` (-1: none).
   double surfaceBelow(const Vec3& p, int exclude) const;
 
-  /// Advances one timestep with the arm servoed to (q, qd, qdd) by computed torque (inverse
+  /// Advances one control period with the arm servoed to (q, qd, qdd) by computed torque (inverse
   /// dynamics feed-forward + PD, clamped to the effort limits) and each finger force-controlled
-  /// toward `finger_target` [m] with at most `finger_force` [N].
+  /// toward `finger_target` [m] with at most `finger_force` [N]; the torques are computed at the
+  /// period's start and held through its physics substeps.
   void stepServo(const VecX& q, const VecX& qd, const VecX& qdd, double finger_target, double finger_force);
-  /// Advances time without dynamics: positions as set, contacts recomputed (mock hardware).
+  /// Advances one control period without dynamics: positions as set, contacts recomputed (mock hardware).
   void stepKinematic();
   /// Recomputes body and site poses for the positions as set (time does not advance).
   void updateKinematics();
@@ -109,8 +133,14 @@ class SimWorld {
   };
   State saveState() const;
   void restoreState(const State& s);
-  /// Steps once per recorded control vector; returns the simulated seconds covered.
-  double replayControls(const std::vector<double>& log);
+  /// What a replay met, summed over its steps.
+  struct ReplayCounts {
+    long steps = 0, contacts = 0, rows = 0, iterations = 0;  ///< contacts, constraint rows, solver iterations
+    long dof = 0;  ///< the models' degrees of freedom, summed over the steps
+  };
+  /// Steps once per recorded control vector (one per physics step); returns the simulated seconds
+  /// covered, and adds to `counts` when given.
+  double replayControls(const std::vector<double>& log, ReplayCounts* counts = nullptr);
   /// Controls per step in a recorded log (the model's actuators: arm joints and fingers).
   int controlsPerStep() const;
 
@@ -137,12 +167,16 @@ class SimWorld {
   const ServoGains& gains() const;
   /// The stiff gains (ServoGains::stiff_kp/kd) on or off; off after reset().
   void setStiff(bool on);
+  /// The payload the servo compensates (gravity and the commanded acceleration of `mass` [kg] at
+  /// `com_tcp` in the TCP frame); 0: none. Cleared by reset().
+  void setPayload(double mass, const Vec3& com_tcp);
 
  private:
   SimWorld();
   struct Impl;    // one compiled model and its data
   struct Shared;  // what every model is composed from, and the compiled models
   static std::unique_ptr<Impl> compile(const Shared& shared, const std::vector<ObjectKind>& objects);
+  static void applyPhysics(Impl& model, const PhysicsOptions& physics, const std::string& file);
   std::unique_ptr<Shared> shared_;
   Impl* impl_ = nullptr;  // the current model, owned by shared_
 };

@@ -213,8 +213,13 @@ class PlanExecution final : public Motion {
         };
         // A contact task (the push) raises the force limit, as Franka users raise the collision
         // thresholds (setCollisionBehavior) for contact-rich motions.
+        // The arm is held at a move's end until still (1 mrad, 1 mrad/s; at most 0.3 s); unless
+        // motion.settle_every_move is off, where only the gripper acting next (the grasp, the
+        // release) or a push needs it: another move hands on as the last setpoint is sent.
+        const bool gripper_next = next_ < plan_.steps.size() && plan_.steps[next_].kind == PlanStep::Kind::kGripper;
+        const bool settle = ctx_.options.settle_every_move || gripper_next || s.stiff || plan_.name == "push";
         current_ = std::make_unique<TrajectoryMotion>(
-            s.trajectory, s.opening, force, monitor, ctx_.robot, 0.3, ctx_.options.path_tolerance,
+            s.trajectory, s.opening, force, monitor, ctx_.robot, settle ? 0.3 : 0.0, ctx_.options.path_tolerance,
             s.stiff ? ctx_.options.push_force_limit : ctx_.options.contact_force_limit, s.guarded);
         ctx_.gripper_opening = s.opening;
         break;
@@ -222,6 +227,13 @@ class PlanExecution final : public Motion {
       case PlanStep::Kind::kGripper:
         // The place steps before this one brought the object over its target.
         if (s.release && plan_.places) ctx_.over_target = plan_.T_world_target;
+        if (s.release && ctx_.held >= 0) {
+          // In-hand slip, a metric from the simulator's truth: where the object sits in the hand as the
+          // fingers begin to open, against where it sat when they closed.
+          const Pose T_tcp_obj = hw.tcpPose().inverse() * hw.object(ctx_.held).T_world_object;
+          ctx_.held_record.in_hand_slip = (T_tcp_obj.translation() - ctx_.T_tcp_held_actual.translation()).norm();
+          hw.setPayload(0, Vec3::Zero());
+        }
         // Detach before opening, as the source's task (weld mode: the attach plugin).
         if (s.release && ctx_.held >= 0 && ctx_.options.weld) hw.attach(ctx_.held, false);
         current_ = std::make_unique<GripperMotion>(s.q_hold, s.opening, force);
@@ -242,7 +254,12 @@ class PlanExecution final : public Motion {
   // the other objects moved while one was picked.
   void account(Hardware& hw) {
     TrialOutcome& out = ctx_.out;
-    if (const double f = hw.externalForce(); std::isfinite(f)) out.max_external_force = std::max(out.max_external_force, f);
+    // As the protective stop sees it: sustained for two control periods (a contact's one-step
+    // impulse is not counted).
+    if (const double f = hw.externalForce(); std::isfinite(f)) {
+      out.max_external_force = std::max(out.max_external_force, std::min(f, last_external_force_));
+      last_external_force_ = f;
+    }
     for (int o : hw.objectsTouched()) {
       // An episode: its onset counts once; touches within 0.1 s of the last belong to it.
       const auto [it, first] = ctx_.last_touch.try_emplace(o, -1e9);
@@ -355,6 +372,9 @@ class PlanExecution final : public Motion {
     r.grasp_opening = ctx_.out.grasp_opening;
     ctx_.held_record = r;
     if (ctx_.options.weld) hw.attach(object, true);
+    if (ctx_.options.payload_compensation)
+      for (const ObjectState& o : ctx_.objects)
+        if (o.index == object) hw.setPayload(o.mass, T_tcp_object.translation());
   }
 
   // The gripper let go of the held object: over its target when a place brought it there; else
@@ -380,6 +400,7 @@ class PlanExecution final : public Motion {
   void lost() {
     if (ctx_.held < 0) return;
     if (ctx_.options.weld) ctx_.hw.attach(ctx_.held, false);
+    ctx_.hw.setPayload(0, Vec3::Zero());
     forget(ctx_.held);
     ctx_.held = -1;
     ctx_.over_target.reset();
@@ -431,6 +452,7 @@ class PlanExecution final : public Motion {
   TrialContext& ctx_;
   std::vector<std::pair<int, Vec3>> start_positions_;  // a pick's objects where they were at its first step
   double step_start_ = 0, next_look_ = 0;  // the trajectory step's start; the next obstacle sensing
+  double last_external_force_ = 0;         // [N] the previous period's
   Plan plan_;
   size_t next_ = 0, stage_index_ = 0;
   const PlanStep* step_ = nullptr;
@@ -768,11 +790,16 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
     // than the object, else finger_margin).
     Pose T_up = T_place;
     T_up.translation().z() += o.retreat_distance;
+    // With a tight margin (clutter), last the same opening checked with that margin as padding, as
+    // the tight approach is: the fingers rise straight up within millimetres of the neighbours.
     const double let_go = o.tight_margin > 0 ? std::min(o.tight_margin, o.finger_margin) : o.finger_margin;
-    for (double opening : {travel, std::min(travel, ctx.out.grasp_opening + let_go)}) {
+    const double just = std::min(travel, ctx.out.grasp_opening + let_go);
+    std::vector<std::pair<double, double>> tries{{travel, o.padding}, {just, o.padding}};
+    if (o.tight_margin > 0 && o.tight_margin < o.padding) tries.push_back({just, o.tight_margin});
+    for (const auto& [opening, padding] : tries) {
       PlanningScene rs = planningScene(ctx, ctx.held, false);
       rs.finger_opening = opening;
-      auto retreating = makeChecker(o.checker, ctx.robot, rs, o.padding);
+      auto retreating = makeChecker(o.checker, ctx.robot, rs, padding);
       retreat = planCartesianLine(ctx.robot, *retreating, descend.waypoints.back(), T_up, ikNear(ctx), o.cartesian);
       ctx.out.collision_checks += retreating->checks();
       release_opening = opening;
@@ -982,8 +1009,11 @@ Failure planPushOf(TrialContext& ctx, const ObjectState& object, Plan& out) {
     const Mat3 Rt = topDownRotation(yaw);
     // 2 cm behind the face: a closed finger's half thickness and a gap (the Panda's fingers are
     // 2.1 cm thick); the checkers prove the fingers clear of the face and the floor.
+    // Low on the face: the TCP 5 mm below the object's centre, so the pads' contact (from about
+    // 4 mm below the TCP upwards) is near the centre's height. Pushed high, a cube tips onto its far
+    // edge and the pads' friction wedges it against the floor.
     Vec3 p0 = c - (extent(d) + 0.02) * d;
-    p0.z() = std::max(floor_z + 0.03, c.z());
+    p0.z() = std::max(floor_z + 0.02, c.z() - 0.005);
     Pose T0 = makePose(p0, Rt), T1 = makePose(p0 + o.push_distance * d, Rt);
     Pose T_pre = T0, T_up = T1;
     T_pre.translation().z() += o.approach_distance;
@@ -1261,6 +1291,7 @@ void finishTrial(TrialContext& ctx, bool tree_succeeded) {
     if (!p.placed && evaluation.ok()) evaluation = {"evaluate", FailureKind::kPlacement, p.reason};
     out.place_position_error = std::max(out.place_position_error, p.position_error);
     out.place_orientation_error = std::max(out.place_orientation_error, p.orientation_error);
+    out.in_hand_slip = std::max(out.in_hand_slip, p.in_hand_slip);
   }
   if (tree_succeeded && evaluated_ok) {
     if (evaluation.ok() && out.picks.empty())

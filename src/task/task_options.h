@@ -32,11 +32,13 @@ struct TaskOptions {
   double push_distance = 0.05;           ///< [m] how far a push moves an object
   double drag_depth = 0.0;               ///< [m] a drag's fingertips this far into the object's top (0: no drags)
   double grasp_force = 40.0;             ///< [N] per finger
+  bool payload_compensation = true;      ///< the servo knows the held object's nominal mass
   double finger_margin = 0.012;          ///< [m] per finger beyond the object's half width when open
   double tight_margin = 0.0;             ///< [m] finger margin and approach padding when nothing fits otherwise (0: never; clutter: 0.004)
   bool weld = false;                     ///< weld-on-grasp (attach plugin) instead of friction
   double drop_distance = 0.03;           ///< [m] object this far from its in-hand pose = dropped
   double path_tolerance = 0.05;          ///< [rad] a joint this far from its setpoint stops the motion
+  bool settle_every_move = true;         ///< hold the arm still at every move's end (false: only before the gripper acts and after pushes)
   double contact_force_limit = 20;       ///< [N] an external contact force past this stops the motion (0: off)
   double push_force_limit = 100;         ///< [N] the same during a push (a contact task)
   double scene_update_period = 0.1;      ///< [s] obstacle sensing while moving (0: none)

@@ -28,6 +28,7 @@ struct PickRecord {
   int grasp_candidates_tried = 0;
   double grasp_opening = 0;        ///< [m] per finger after closing
   double neighbours_moved = 0;     ///< [m] the farthest another object moved while this one was picked
+  double in_hand_slip = 0;         ///< [m] how far it moved in the hand from the fingers closing to the release (ground truth)
   bool first_pass = false;         ///< let go of at its target with no failure since the previous one was
   std::string reason;              ///< why it is not placed
 };
@@ -82,6 +83,7 @@ struct TrialOutcome {
   double sim_time = 0;      ///< simulated seconds of the whole trial (deterministic)
   double compute_time = 0;  ///< wall seconds of the blocking computation
   double place_position_error = 0, place_orientation_error = 0;  ///< the worst placed object's
+  double in_hand_slip = 0;  ///< [m] the most any object moved in the hand between grasp and release (ground truth)
   int collision_count = 0;
   std::vector<std::string> collision_log;
   double max_tracking_error = 0;

@@ -50,7 +50,7 @@ Result runTree(const std::string& tree, std::vector<std::string> sets, uint64_t 
   if (file) sets.push_back("tree=experiments/trees/" + tree);
   const Experiment e = loadExperiment("experiments/quickstart.yaml", sets);
   static const RobotModel robot = RobotModel::load("robots/panda/panda.yaml");
-  auto world = SimWorld::load(e.scene_path, robot);
+  auto world = loadWorld(e, robot);
   const Cell cell = makeCell(e, robot, *world);
   bt::Factory f;
   bt::TaskNodeEnv env;

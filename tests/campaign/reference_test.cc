@@ -6,7 +6,9 @@
 // ends, from the pick_place tree, `minimanip bench` showing the tree-less chain with the same
 // success and simulated time on every trial; re-recorded the same day when each trial's model came
 // to hold only the objects in play (no parked pool): the same success on all 100, place errors
-// within 0.029 mm, stage durations within a few steps.
+// within 0.029 mm, stage durations within a few steps; and again with the place-error fix of
+// issue 13 (the pads govern their contacts, the servo compensates the payload: place errors
+// 2.84 -> 0.42 mm mean, the fingers close and open sooner on the stiffer pads), by design.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
