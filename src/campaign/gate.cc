@@ -250,15 +250,22 @@ void writeAtomically(const fs::path& p, const std::string& text) {
 }
 
 /// The keys whose values differ between two configuration fingerprints, but those `allowed` and the
-/// test-only planner slowdown (it stands in for a slower build); "" when they agree.
+/// test-only planner slowdown (it stands in for a slower build); "" when they agree. A key the
+/// baseline does not have (declared after it was made) agrees when the run leaves it at its default:
+/// a new option's default keeps the old behaviour.
 std::string configDifferences(const json& base, const json& run, const std::vector<std::string>& allowed) {
   std::set<std::string> keys;
   for (const auto& [k, v] : base.items()) keys.insert(k);
   for (const auto& [k, v] : run.items()) keys.insert(k);
+  std::map<std::string, std::string> defaults;
+  for (const ParamDecl& d : experimentParams()) defaults[d.key] = d.default_value;
   std::string said;
   int n = 0;
   for (const std::string& k : keys) {
     if (k == "planning.test_slowdown" || std::find(allowed.begin(), allowed.end(), k) != allowed.end()) continue;
+    if (!base.contains(k) && run.contains(k) && run.at(k).is_string() && defaults.count(k) &&
+        run.at(k).get<std::string>() == defaults.at(k))
+      continue;
     const json a = base.contains(k) ? base.at(k) : json("(absent)"), b = run.contains(k) ? run.at(k) : json("(absent)");
     if (a == b) continue;
     if (n++ == 6) {

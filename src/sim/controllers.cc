@@ -50,12 +50,13 @@ bool TrajectoryMotion::command(Hardware& hw) {
       return true;
     }
     streaming_ = false;
+    if (settle_opening_ >= 0 && pending_.ok() && !touched_down_) hw.writeGripper(settle_opening_, settle_force_);
   }
   const VecX q_end = traj_.q.col(n - 1);
   // After a stop the arm is always held until still (at most 0.3 s), whatever comes next.
   const double settle = pending_.ok() ? settle_ : std::max(settle_, 0.3);
   if (!(t_settle_ < settle) ||
-      (hw.jointVelocities().cwiseAbs().maxCoeff() < 1e-3 && (q_end - hw.jointPositions()).cwiseAbs().maxCoeff() < 1e-3)) {
+      (hw.jointVelocities().cwiseAbs().maxCoeff() < settle_qd_ && (q_end - hw.jointPositions()).cwiseAbs().maxCoeff() < settle_q_)) {
     if (pending_.ok()) succeed(hw);
     else fail(hw, pending_);
     return false;

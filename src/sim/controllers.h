@@ -71,6 +71,12 @@ class TrajectoryMotion final : public Motion {
                    const RobotModel& robot, double settle = 0.3, double path_tolerance = 0, double force_limit = 0,
                    bool guarded = false);
   bool touchedDown() const { return touched_down_; }  ///< a guarded move ended on contact
+  /// Still means every joint within `position` [rad] of the last sample and slower than
+  /// `velocity` [rad/s] (both 1e-3 unless set).
+  void setSettleTolerance(double position, double velocity) { settle_q_ = position, settle_qd_ = velocity; }
+  /// Once the last sample is sent (the settle begins), command the gripper to `opening` with
+  /// `force`: the next step's close starts while the arm settles.
+  void closeWhileSettling(double opening, double force) { settle_opening_ = opening, settle_force_ = force; }
   bool command(Hardware& hw) override;
   void observe(Hardware& hw) override;
   void halt(Hardware& hw) override;
@@ -84,6 +90,8 @@ class TrajectoryMotion final : public Motion {
   const RobotModel& robot_;
   double settle_, path_tolerance_, force_limit_;
   double last_force_ = 0;  // the previous period's external force [N]
+  double settle_q_ = 1e-3, settle_qd_ = 1e-3;
+  double settle_opening_ = -1, settle_force_ = 0;
   bool guarded_ = false, touched_down_ = false;
   int k_ = 0;            // the sample the joints were last sent to
   bool streaming_ = true;

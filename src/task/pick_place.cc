@@ -218,9 +218,13 @@ class PlanExecution final : public Motion {
         // release) or a push needs it: another move hands on as the last setpoint is sent.
         const bool gripper_next = next_ < plan_.steps.size() && plan_.steps[next_].kind == PlanStep::Kind::kGripper;
         const bool settle = ctx_.options.settle_every_move || gripper_next || s.stiff || plan_.name == "push";
-        current_ = std::make_unique<TrajectoryMotion>(
+        auto motion = std::make_unique<TrajectoryMotion>(
             s.trajectory, s.opening, force, monitor, ctx_.robot, settle ? 0.3 : 0.0, ctx_.options.path_tolerance,
             s.stiff ? ctx_.options.push_force_limit : ctx_.options.contact_force_limit, s.guarded);
+        motion->setSettleTolerance(1e-3, ctx_.options.settle_velocity);
+        if (gripper_next && ctx_.options.close_early && !plan_.steps[next_].release && plan_.steps[next_].opening < s.opening)
+          motion->closeWhileSettling(plan_.steps[next_].opening, force);
+        current_ = std::move(motion);
         ctx_.gripper_opening = s.opening;
         break;
       }

@@ -11,6 +11,9 @@ void TaskOptions::declare(ConfigArchive& a) {
   a.named("mode", weld, {{"friction", false}, {"weld", true}},
           "friction: held by finger force; weld: attached on grasp (the source's attach plugin)");
   a.value("force", grasp_force, {1.0, 1000.0}, "N", "finger force limit while grasping, at most the gripper's max_force");
+  a.value("close_early", close_early,
+          "the fingers start closing as the approach's last setpoint is sent, while the arm settles at the grasp pose, "
+          "instead of once it is still (the fault gripper_no_close strikes the close_gripper stage only: leave it off with faults)");
   a.value("payload_compensation", payload_compensation,
           "while an object is held, the servo compensates its weight and commanded acceleration (its kind's nominal mass at "
           "the planned grasp's centre, as Franka's setLoad); false: the arm sags under it");
@@ -46,6 +49,8 @@ void TaskOptions::declare(ConfigArchive& a) {
           "while moving, the robot senses new obstacles this often and stops if one blocks the rest of its path "
           "(MoveIt's planning scene monitor); 0: never");
   a.value("velocity_scaling", scaling.velocity, {0.01, 1.0}, "", "fraction of the joint velocity limits");
+  a.value("settle_velocity", settle_velocity, {1e-4, 0.1}, "rad/s",
+          "a move's end is reached when every joint is within 1 mrad of it and slower than this (or after 0.3 s)");
   a.value("settle_every_move", settle_every_move,
           "hold the arm at every move's end until it is still (1 mrad, 1 mrad/s; at most 0.3 s); false: only where the gripper "
           "acts next (grasp, release) and after pushes, a move followed by another handing on as its last setpoint is sent "

@@ -38,6 +38,8 @@ struct TaskOptions {
   bool weld = false;                     ///< weld-on-grasp (attach plugin) instead of friction
   double drop_distance = 0.03;           ///< [m] object this far from its in-hand pose = dropped
   double path_tolerance = 0.05;          ///< [rad] a joint this far from its setpoint stops the motion
+  double settle_velocity = 1e-3;         ///< [rad/s] still, at a move's end
+  bool close_early = false;              ///< the grasp's close starts as the approach's last setpoint is sent
   bool settle_every_move = true;         ///< hold the arm still at every move's end (false: only before the gripper acts and after pushes)
   double contact_force_limit = 20;       ///< [N] an external contact force past this stops the motion (0: off)
   double push_force_limit = 100;         ///< [N] the same during a push (a contact task)
