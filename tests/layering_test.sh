@@ -6,7 +6,7 @@ set -u
 cd "$(dirname "$0")/../src"
 fail=0
 for layer in core robot kinematics planning grasp perception; do
-  hits=$(grep -nE '#include [<"](mujoco/|sim/|task/|bt/|campaign/|cli/)' "$layer"/*.h "$layer"/*.cc 2>/dev/null)
+  hits=$(grep -nE '#include [<"](mujoco/|sim/|render/|task/|bt/|campaign/|cli/)' "$layer"/*.h "$layer"/*.cc 2>/dev/null)
   if [ -n "$hits" ]; then echo "layer $layer includes a layer above it or MuJoCo:"; echo "$hits"; fail=1; fi
 done
 hits=$(grep -nE '#include [<"](bt/|faults/|campaign/|cli/|mujoco/)' task/*.h task/*.cc sim/*.h 2>/dev/null)
@@ -14,7 +14,12 @@ if [ -n "$hits" ]; then echo "task/ includes the behavior-tree layer, faults/, c
 # Fault injection reaches the task through its hooks and the hardware it wraps: never the tree or MuJoCo.
 hits=$(grep -nE '#include [<"](bt/|campaign/|cli/|mujoco/)' faults/*.h faults/*.cc 2>/dev/null)
 if [ -n "$hits" ]; then echo "faults/ includes the behavior-tree layer, campaign/, cli/ or MuJoCo:"; echo "$hits"; fail=1; fi
-for layer in core robot sim kinematics planning grasp perception task bt faults; do
+# The renderer sits beside the simulator: it reads the world and writes images, it runs no task.
+hits=$(grep -nE '#include [<"](task/|bt/|faults/|campaign/|cli/|perception/|planning/)' render/*.h render/*.cc 2>/dev/null)
+if [ -n "$hits" ]; then echo "render/ includes a layer above it:"; echo "$hits"; fail=1; fi
+hits=$(grep -nE '#include [<"]render/' sim/*.h sim/*.cc task/*.h task/*.cc 2>/dev/null)
+if [ -n "$hits" ]; then echo "sim/ or task/ includes render/:"; echo "$hits"; fail=1; fi
+for layer in core robot sim render kinematics planning grasp perception task bt faults; do
   hits=$(grep -nE '#include [<"](campaign/|cli/)' "$layer"/*.h "$layer"/*.cc 2>/dev/null)
   if [ -n "$hits" ]; then echo "layer $layer includes campaign/ or cli/:"; echo "$hits"; fail=1; fi
 done

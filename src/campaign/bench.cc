@@ -11,6 +11,7 @@
 #include "campaign/stats.h"
 #include "campaign/trial.h"
 #include "core/error.h"
+#include "render/renderer.h"
 #include "sim/hardware.h"
 #include "sim/sim_world.h"
 
@@ -156,6 +157,30 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
   o << "    together: " << 100 * (tree_own + c.log_seconds) / wall_tree << "% of the trials' wall time\n";
   o << "    same trials without the tree (the chain of the same actions): " << wall_chain << " s against " << wall_tree
     << " s with it; median per-trial ratio " << median_ratio << "\n";
+  // Rendering: the last trial's final state through the experiment's camera, each image kind on
+  // its own and all three, after one warm-up render (the GPU context and the model's upload).
+  {
+    std::string why;
+    auto r = Renderer::create(e.render.egl, &why);
+    if (!r) {
+      o << "  rendering: none (" << why << ")\n";
+    } else {
+      const CameraModel cam = r->camera(*world, e.render.camera, e.render.width, e.render.height, e.file);
+      const auto tw = Clock::now();
+      r->render(*world, cam, kRgb);
+      const double warm = secs(tw, Clock::now());
+      o << "  rendering (" << r->description() << "), camera " << cam.name << " " << cam.width << "x" << cam.height
+        << ", first frame " << 1e3 * warm << " ms, then per frame:";
+      const std::pair<const char*, unsigned> kinds[] = {
+          {"rgb", kRgb}, {"depth", kDepth}, {"segmentation", kSegmentation}, {"all three", kRgb | kDepth | kSegmentation}};
+      for (const auto& [name, kind] : kinds) {
+        const int n = 30;
+        const auto t0 = Clock::now();
+        for (int k = 0; k < n; ++k) r->render(*world, cam, kind);
+        o << " " << name << " " << 1e3 * secs(t0, Clock::now()) / n << " ms" << (kind == (kRgb | kDepth | kSegmentation) ? "\n" : ",");
+      }
+    }
+  }
   o.precision(1);
   o << "  total bench wall time: " << wall_total << " s\n";
   return o.str();

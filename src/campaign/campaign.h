@@ -5,6 +5,7 @@
 //   <out>/summary.json          yields with Wilson 95% intervals, cycle time, breakdown, accuracy,
 //                               failures by stage, environment (written by temp file + rename)
 #pragma once
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,21 @@ std::string runCampaign(const Experiment& experiment, const CampaignOptions& opt
 /// the tree logs, campaign.json, config.resolved.yaml and the summary recomputed from the trials
 /// (wall_seconds: the shards' sum). Returns the printed summary table.
 std::string mergeResults(const std::vector<std::string>& dirs, const std::string& out_dir, const std::string& command);
+
+/// A trial rendered again (`minimanip render`).
+struct RenderReplay {
+  std::string dir;                       ///< its renders folder
+  std::vector<std::string> files;        ///< written there
+  std::string renderer;
+  bool matches = false;                  ///< its outcome equals its line in trials.jsonl
+  std::vector<std::string> differences;  ///< otherwise, the first fields that differ
+};
+/// Runs trial `trial` of the campaign in `results_dir` again from its seed, in this process, with
+/// rendering on (key frames of every image kind and a video, unless `render_sets`, "render.key=value",
+/// say otherwise), into results_dir/renders/trial_<N>/, and compares its outcome fields with the
+/// trial's line in trials.jsonl. InputError when the folder, the trial or the experiment (changed
+/// since) does not allow a replay.
+RenderReplay renderTrial(const std::string& results_dir, uint64_t trial, const std::vector<std::string>& render_sets);
 
 /// The summary table `run` prints.
 struct CampaignSummary;

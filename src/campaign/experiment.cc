@@ -59,6 +59,9 @@ void Experiment::declare(ConfigArchive& a) {
   a.choice("log", bt_log, {"none", "failed_or_recovered", "all"},
            "which trials keep their tree's transitions as results/<name>/bt/trial_<N>.db3 (BT.CPP's SqliteLogger schema, Groot2)");
   a.leave();
+  a.enter("render");
+  render.declare(a);
+  a.leave();
 }
 
 RobotModel loadExperimentRobot(const Experiment& e) {
@@ -158,6 +161,9 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
                        "shard is '" + e.shard + "', expected K/N with 0 <= K < N, e.g. 0/4");
     e.shard_index = k, e.shard_count = n;
   }
+  if (500 % e.render.fps != 0)
+    throw InputError(path, "render.fps is " + std::to_string(e.render.fps) +
+                               ", expected a divisor of the 500 Hz control rate (e.g. 10, 20, 25, 50, 100)");
   e.spawn.physics = e.hardware == "mujoco";
   if (e.jobs == 0) e.jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   return e;

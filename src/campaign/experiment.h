@@ -11,6 +11,7 @@
 #include "core/config.h"
 #include "core/params.h"
 #include "perception/perception.h"
+#include "render/trial_renders.h"
 #include "sim/scene_sampler.h"
 #include "sim/sim_world.h"
 #include "task/pick_place.h"
@@ -43,6 +44,7 @@ struct Experiment {
   TaskOptions task;
   bt::TreeRunOptions tree_run;
   FaultOptions faults;
+  RenderOptions render;
   /// Test-only faults of the harness itself, by trial index: the worker process segfaults (in every
   /// attempt, or only the first) or hangs before running the trial.
   struct TestFaults {

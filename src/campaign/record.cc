@@ -247,6 +247,7 @@ void CampaignSummary::describe(RecordArchive& a) {
     e.field("cpu", cpu, "", "");
     e.field("cores", cores, "", "");
     e.field("host", host, "", "");
+    e.field("renderer", renderer, "", "the OpenGL renderer, its version and EGL platform when the campaign rendered images (null otherwise): images, and camera-mode outcomes, are the same per renderer");
     e.field("jobs", jobs, "", "worker processes");
   }, "the machine and versions");
 }

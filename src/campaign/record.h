@@ -100,6 +100,7 @@ struct CampaignSummary {
   std::vector<double> object_yield_ci95, object_first_pass_ci95;
   double wall_seconds = 0, trials_per_second = 0;
   std::string minimanip, mujoco, ompl, compiler, cpu, host;
+  std::string renderer;  ///< when rendering: the OpenGL renderer (images differ between renderers)
   long cores = 0, jobs = 0;
   void describe(RecordArchive& a);
 };

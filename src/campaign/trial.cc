@@ -7,6 +7,9 @@
 #include "bt/sqlite_log.h"
 #include "core/error.h"
 #include "bt/trial_runner.h"
+#include "render/image_io.h"
+#include "render/renderer.h"
+#include "render/trial_renders.h"
 #include "sim/hardware.h"
 #include "sim/sim_world.h"
 
@@ -21,12 +24,59 @@ TrialRunner::TrialRunner(const Experiment& e, const Cell& cell, const bt::TreeDo
 
 TrialRunner::~TrialRunner() = default;
 
+void TrialRunner::setRenderer(Renderer* renderer, std::string dir, const RenderOptions& options) {
+  renderer_ = renderer;
+  render_dir_ = std::move(dir);
+  render_ = options;
+}
+
+RenderSetup::RenderSetup() = default;
+RenderSetup::~RenderSetup() = default;
+RenderSetup::RenderSetup(RenderSetup&&) noexcept = default;
+
+RenderSetup setUpRendering(const Experiment& e) {
+  RenderSetup r;
+  r.options = e.render;
+  if (!e.render.enabled()) return r;
+  std::string why;
+  r.renderer = Renderer::create(e.render.egl, &why);
+  if (!r.renderer) {
+    std::fprintf(stderr, "minimanip: rendering off, the trials run without images: %s\n", why.c_str());
+    return r;
+  }
+  if (r.options.video && !VideoWriter::available(&why)) {
+    std::fprintf(stderr, "minimanip: no videos (%s); key frames only\n", why.c_str());
+    r.options.video = false;
+  }
+  return r;
+}
+
+std::string trialRenderDir(const std::string& dir, uint64_t trial) {
+  char name[32];
+  std::snprintf(name, sizeof name, "trial_%06lu", static_cast<unsigned long>(trial));
+  return (std::filesystem::path(dir) / name).string();
+}
+
 TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial, std::string& bt_log) {
   using Clock = std::chrono::steady_clock;
   std::unique_ptr<FaultInjector> faults;
   if (e_.faults.any()) faults = std::make_unique<FaultInjector>(e_.faults, world, e_.seed, trial);
-  Hardware& hw = faults ? faults->wrap(backend) : backend;
+  // Renders: a key frame as a listed stage ends (seen before the next control period, or at the
+  // end, so the world is as the stage left it), video frames after control periods.
+  std::unique_ptr<TrialRenders> renders;
+  const TrialContext* context = nullptr;
+  size_t stages_seen = 0;
+  auto stages_ended = [&](bool all) {
+    const std::vector<StageRecord>& s = context->out.stages;
+    while (stages_seen + (all ? 0 : 1) < s.size()) renders->stageEnded(s[stages_seen++].name);
+  };
+  rendered_.clear();
+  if (renderer_ && render_.renders(trial))
+    renders = std::make_unique<TrialRenders>(*renderer_, world, render_, trialRenderDir(render_dir_, trial), e_.file);
+  Hardware& tapped = renders ? renders->wrap(backend, [&] { stages_ended(false); }) : backend;
+  Hardware& hw = faults ? faults->wrap(tapped) : tapped;
   TrialContext ctx(hw, *cell_.robot, cell_.statics, e_.task, cell_.perception, e_.seed, trial);
+  context = &ctx;
   ctx.faults = faults.get();
   env_.ctx = &ctx;
   std::unique_ptr<bt::Tree> tree = factory_.instantiate(doc_);
@@ -36,6 +86,10 @@ TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial
   const bt::TreeRunResult r = bt::runTree(*tree, ctx, e_.tree_run);
   const bool succeeded = r.status == bt::NodeStatus::kSuccess && !r.timeout && r.error.empty();
   finishTrial(ctx, succeeded);
+  if (renders) {
+    stages_ended(true);
+    rendered_ = renders->finish();
+  }
   if (faults) ctx.out.faults = faults->report(ctx);
   env_.ctx = nullptr;
   TrialOutcome out = std::move(ctx.out);

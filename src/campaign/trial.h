@@ -15,7 +15,7 @@
 namespace mm {
 
 class Hardware;
-
+class Renderer;
 class SimWorld;
 
 /// What every trial of a campaign shares (read from the robot and the scene once).
@@ -56,6 +56,10 @@ class TrialRunner {
   /// path when one was written.
   TrialOutcome run(Hardware& hw, SimWorld& world, uint64_t trial, std::string& bt_log);
   const TreeCost& cost() const { return cost_; }
+  /// Renders the trials `options` asks for with `renderer` into `dir`/trial_<N>/ (null: none).
+  void setRenderer(Renderer* renderer, std::string dir, const RenderOptions& options);
+  /// The files the last run() rendered, relative to its trial's folder.
+  const std::vector<std::string>& rendered() const { return rendered_; }
 
  private:
   const Experiment& e_;
@@ -65,7 +69,25 @@ class TrialRunner {
   bt::TaskNodeEnv env_;
   bt::Factory factory_;
   TreeCost cost_;
+  Renderer* renderer_ = nullptr;
+  std::string render_dir_;
+  RenderOptions render_;
+  std::vector<std::string> rendered_;
 };
+
+/// A process's rendering: the renderer (null when rendering is off or impossible) and the options
+/// it can honour (no video without ffmpeg). What was given up is said on stderr.
+struct RenderSetup {
+  std::unique_ptr<Renderer> renderer;
+  RenderOptions options;
+  RenderSetup();
+  ~RenderSetup();
+  RenderSetup(RenderSetup&&) noexcept;
+};
+RenderSetup setUpRendering(const Experiment& e);
+
+/// A trial's renders folder under `dir`: trial_<N> with N in six digits.
+std::string trialRenderDir(const std::string& dir, uint64_t trial);
 
 /// Loads and checks the experiment's tree with the node library (InputError: exit code 2).
 bt::TreeDocument loadTree(const Experiment& e);

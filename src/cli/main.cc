@@ -3,6 +3,7 @@
 // Exit codes: 0 done, 1 internal error, 2 bad input (nothing run, no results written).
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <csignal>
 #include <iostream>
 #include <map>
 #include <string>
@@ -139,6 +140,16 @@ int main(int argc, char** argv) {
   gate->add_option("--baseline", gate_opts.baseline, "a baseline file or results folder (overrides the thresholds' baseline.file)");
   gate->add_option("--save-baseline", gate_opts.save_baseline, "write the results' baseline file (per-trial success, counters, timings)");
 
+  std::string render_dir;
+  uint64_t render_trial = 0;
+  std::vector<std::string> render_sets;
+  CLI::App* render = app.add_subcommand("render", "a campaign's trial run again from its seed with images and video "
+                                                   "(results/<name>/renders/trial_<N>/), checked against its line in trials.jsonl");
+  render->add_option("results", render_dir, "the campaign's results folder")->required();
+  render->add_option("--trial", render_trial, "the trial to render")->required();
+  render->add_option("--set", render_sets, "render.KEY=VALUE: what to render (default: every stage's key frame "
+                                           "in rgb, depth and segmentation with previews, and the video)");
+
   // The worker process of a campaign (started by `run`, not by people): hidden from --help.
   RunArgs worker_args;
   CLI::App* worker = app.add_subcommand("worker", "");
@@ -153,9 +164,9 @@ int main(int argc, char** argv) {
   CLI::App* gate_doc = app.add_subcommand("gate-doc", "print every key of a gate's thresholds file as a Markdown table");
 
   try {
-    const std::vector<std::string> commands = {"run", "bench", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc", "merge", "report", "gate", "gate-doc", "worker"};
+    const std::vector<std::string> commands = {"run", "bench", "render", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc", "merge", "report", "gate", "gate-doc", "worker"};
     if (argc > 1 && argv[1][0] != '-' && std::find(commands.begin(), commands.end(), argv[1]) == commands.end())
-      throw mm::InputError(argv[1], "unknown command (expected run, bench, merge, report, gate, ik-bench, plan-bench, config-doc, nodes-doc, results-doc or gate-doc; --help)");
+      throw mm::InputError(argv[1], "unknown command (expected run, bench, render, merge, report, gate, ik-bench, plan-bench, config-doc, nodes-doc, results-doc or gate-doc; --help)");
     try {
       app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -173,6 +184,22 @@ int main(int argc, char** argv) {
       const mm::GateResult g = mm::runGate(gate_opts);
       std::cout << g.text;
       return g.exit_code;
+    }
+    if (render->parsed()) {
+      for (const std::string& kv : render_sets)
+        if (kv.rfind("render.", 0) != 0)
+          throw mm::InputError("--set " + kv, "expected a render.KEY=VALUE setting (the trial itself is the campaign's)");
+      signal(SIGPIPE, SIG_IGN);  // a video encoder that dies is reported, not a signal
+      const mm::RenderReplay r = mm::renderTrial(render_dir, render_trial, render_sets);
+      std::cout << "Rendered trial " << render_trial << " with " << r.renderer << ":\n";
+      for (const std::string& f : r.files) std::cout << "  " << r.dir << "/" << f << "\n";
+      if (r.matches) {
+        std::cout << "Replay matches trial " << render_trial << " in trials.jsonl (every outcome field).\n";
+        return 0;
+      }
+      std::cout << "Replay DIFFERS from trial " << render_trial << " in trials.jsonl:\n";
+      for (const std::string& d : r.differences) std::cout << "  " << d << "\n";
+      return 1;
     }
     if (gate_doc->parsed()) {
       std::cout << mm::ParamSet(mm::gateParams()).toMarkdown();

@@ -72,6 +72,7 @@ struct SimWorld::Impl {
   std::vector<char> obstacle_placed;
   std::vector<char> robot_geom, static_geom, foreign_geom;
   std::vector<int> geom_object;  ///< the object index of an object's geom, else -1
+  std::vector<unsigned char> geom_label;  ///< SegmentLabel
   std::vector<int> body_group;   ///< a robot body's force group: the hand for the hand and what it carries, else itself; -1 off the robot
   int hand_body = -1;
   int robot_root = -1;
@@ -353,6 +354,12 @@ std::unique_ptr<SimWorld::Impl> SimWorld::compile(const Shared& S, const std::ve
   }
   I.geom_object.assign(m->ngeom, -1);
   for (size_t i = 0; i < I.obj_geom.size(); ++i) I.geom_object[I.obj_geom[i]] = static_cast<int>(i);
+  I.geom_label.assign(m->ngeom, kSegmentScene);
+  for (int g = 0; g < m->ngeom; ++g) {
+    if (I.robot_geom[g]) I.geom_label[g] = kSegmentRobot;
+    else if (I.foreign_geom[g]) I.geom_label[g] = kSegmentObstacle;
+    else if (I.geom_object[g] >= 0) I.geom_label[g] = static_cast<unsigned char>(kSegmentObject0 + std::min(I.geom_object[g], 252));
+  }
   // Force groups: the hand is the body the fingers hang from; it, the fingers and anything mounted
   // below it sense contact as one (a wrist force sensor's view); every other arm body on its own.
   const int hand = m->body_parentid[m->jnt_bodyid[m->dof_jntid[I.finger_dof[0]]]];
@@ -471,6 +478,10 @@ void SimWorld::setObjectPose(int i, const Pose& T) {
 }
 
 void SimWorld::parkObject(int i) { setObjectPose(i, impl_->obj_park[i]); }
+
+const mjModel_* SimWorld::mujocoModel() const { return impl_->m; }
+mjData_* SimWorld::mujocoData() const { return impl_->d; }
+const std::vector<unsigned char>& SimWorld::geomLabels() const { return impl_->geom_label; }
 
 int SimWorld::numObstacles() const { return static_cast<int>(impl_->obstacle_body.size()); }
 

@@ -13,7 +13,18 @@
 #include "robot/robot_model.h"
 #include "sim/object_catalogue.h"
 
+struct mjModel_;  // MuJoCo's model and data, named only for the renderer (render/)
+struct mjData_;
+
 namespace mm {
+
+/// A geom's label in a segmentation image.
+enum SegmentLabel : unsigned char {
+  kSegmentScene = 0,     ///< the static scene: floor, table, bins, tray
+  kSegmentRobot = 1,     ///< the arm and its gripper
+  kSegmentObject0 = 2,   ///< object k is kSegmentObject0 + k (at most 252 objects)
+  kSegmentObstacle = 255,
+};
 
 struct ServoGains {
   double kp = 400.0;   ///< [1/s^2] joint position gain of the computed-torque servo
@@ -170,6 +181,12 @@ class SimWorld {
   /// The payload the servo compensates (gravity and the commanded acceleration of `mass` [kg] at
   /// `com_tcp` in the TCP frame); 0: none. Cleared by reset().
   void setPayload(double mass, const Vec3& com_tcp);
+
+  // For the renderer (render/) only: the current model and its data as they are now (the renderer
+  // reads them), and each geom's SegmentLabel.
+  const mjModel_* mujocoModel() const;
+  mjData_* mujocoData() const;
+  const std::vector<unsigned char>& geomLabels() const;
 
  private:
   SimWorld();

@@ -25,6 +25,7 @@ using K = ParamDecl::Kind;
 // A valid value other than the default.
 std::string otherValue(const ParamDecl& d) {
   if (d.key == "shard") return "1/3";  // a text of its own format
+  if (d.key == "render.fps") return "50";  // a divisor of the control rate
   switch (d.kind) {
     case K::kInt: {
       const long v = std::stol(d.default_value);
@@ -47,7 +48,7 @@ std::string otherValue(const ParamDecl& d) {
       return d.default_value;
     case K::kIntList: return "1,2";
     case K::kRealList: return std::to_string(std::max(d.min, 0.0)) + "," + std::to_string(std::min(d.max, 0.25));
-    case K::kChoiceList: return d.choices.empty() ? "a,b" : d.choices.front();
+    case K::kChoiceList: return d.choices.empty() ? "a,b" : d.choices.front() != d.default_value ? d.choices.front() : d.choices.back();
   }
   return "";
 }

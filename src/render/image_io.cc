@@ -1,0 +1,160 @@
+#include "render/image_io.h"
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <csignal>
+#include <stdexcept>
+
+#include "sim/sim_world.h"
+
+namespace mm {
+namespace {
+
+void write(const std::string& path, const cv::Mat& image) {
+  bool ok = false;
+  try {
+    ok = cv::imwrite(path, image);
+  } catch (const cv::Exception& e) {
+    throw std::runtime_error("cannot write " + path + ": " + e.what());
+  }
+  if (!ok) throw std::runtime_error("cannot write " + path);
+}
+
+void need(const Frame& f, bool present, const char* what) {
+  if (!present) throw std::logic_error(std::string("frame of camera '") + f.camera.name + "' has no " + what);
+}
+
+}  // namespace
+
+void writeRgbPng(const std::string& path, const Frame& f) {
+  need(f, !f.rgb.empty(), "rgb");
+  cv::Mat rgb(f.camera.height, f.camera.width, CV_8UC3, const_cast<uint8_t*>(f.rgb.data())), bgr;
+  cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+  write(path, bgr);
+}
+
+void writeDepthPng(const std::string& path, const Frame& f) {
+  need(f, !f.depth.empty(), "depth");
+  cv::Mat d(f.camera.height, f.camera.width, CV_16UC1);
+  for (int r = 0; r < d.rows; ++r)
+    for (int c = 0; c < d.cols; ++c) {
+      const double z = f.depth[static_cast<size_t>(r) * static_cast<size_t>(d.cols) + static_cast<size_t>(c)];
+      d.at<uint16_t>(r, c) = static_cast<uint16_t>(std::clamp(std::lround(z / kDepthPngScale), 0L, 65535L));
+    }
+  write(path, d);
+}
+
+std::vector<float> readDepthPng(const std::string& path, int* width, int* height) {
+  const cv::Mat d = cv::imread(path, cv::IMREAD_ANYDEPTH);
+  if (d.empty() || d.type() != CV_16UC1) throw std::runtime_error(path + ": not a 16-bit depth PNG");
+  *width = d.cols;
+  *height = d.rows;
+  std::vector<float> z(static_cast<size_t>(d.rows) * static_cast<size_t>(d.cols));
+  for (int r = 0; r < d.rows; ++r)
+    for (int c = 0; c < d.cols; ++c)
+      z[static_cast<size_t>(r) * static_cast<size_t>(d.cols) + static_cast<size_t>(c)] =
+          static_cast<float>(d.at<uint16_t>(r, c) * kDepthPngScale);
+  return z;
+}
+
+void writeSegmentationPng(const std::string& path, const Frame& f) {
+  need(f, !f.segmentation.empty(), "segmentation");
+  write(path, cv::Mat(f.camera.height, f.camera.width, CV_8UC1, const_cast<uint8_t*>(f.segmentation.data())));
+}
+
+void writeDepthPreview(const std::string& path, const Frame& f) {
+  need(f, !f.depth.empty(), "depth");
+  // Near to far over 0..255, histogram-equalized so that the few centimetres between a bin's floor
+  // and the objects on it show as well as the metre down to the floor.
+  float lo = 1e9f, hi = 0;
+  for (float z : f.depth)
+    if (z > 0) lo = std::min(lo, z), hi = std::max(hi, z);
+  cv::Mat grey(f.camera.height, f.camera.width, CV_8UC1), equalized, colour;
+  for (size_t i = 0; i < f.depth.size(); ++i) {
+    const float z = f.depth[i];
+    grey.data[i] = z > 0 && hi > lo ? static_cast<uint8_t>(std::lround(255.0 * (z - lo) / (hi - lo))) : 255;
+  }
+  cv::equalizeHist(grey, equalized);
+  cv::applyColorMap(equalized, colour, cv::COLORMAP_TURBO);
+  for (size_t i = 0; i < f.depth.size(); ++i)
+    if (f.depth[i] <= 0) colour.at<cv::Vec3b>(static_cast<int>(i)) = cv::Vec3b(0, 0, 0);
+  write(path, colour);
+}
+
+void writeSegmentationPreview(const std::string& path, const Frame& f) {
+  need(f, !f.segmentation.empty(), "segmentation");
+  cv::Mat bgr(f.camera.height, f.camera.width, CV_8UC3);
+  for (size_t i = 0; i < f.segmentation.size(); ++i) {
+    const int label = f.segmentation[i];
+    cv::Vec3b c;
+    if (label == kSegmentScene) c = cv::Vec3b(60, 60, 60);
+    else if (label == kSegmentRobot) c = cv::Vec3b(200, 200, 200);
+    else if (label == kSegmentObstacle) c = cv::Vec3b(0, 0, 255);
+    else {
+      // Objects in hues spaced by the golden angle, so neighbours' colours differ.
+      cv::Mat hsv(1, 1, CV_8UC3, cv::Scalar(static_cast<int>(std::fmod((label - kSegmentObject0) * 137.5, 360.0) / 2), 220, 255)), out;
+      cv::cvtColor(hsv, out, cv::COLOR_HSV2BGR);
+      c = out.at<cv::Vec3b>(0, 0);
+    }
+    bgr.at<cv::Vec3b>(static_cast<int>(i)) = c;
+  }
+  write(path, bgr);
+}
+
+bool VideoWriter::available(std::string* why) {
+  FILE* p = popen("ffmpeg -hide_banner -loglevel error -encoders 2>/dev/null", "r");
+  if (!p) {
+    *why = "cannot start ffmpeg";
+    return false;
+  }
+  std::string text;
+  char buf[4096];
+  while (size_t n = fread(buf, 1, sizeof buf, p)) text.append(buf, n);
+  const int status = pclose(p);
+  if (status != 0) {
+    *why = "ffmpeg is not installed (Debian package ffmpeg)";
+    return false;
+  }
+  if (text.find("libx264") == std::string::npos) {
+    *why = "ffmpeg has no libx264 encoder";
+    return false;
+  }
+  return true;
+}
+
+VideoWriter::VideoWriter(std::string path, int width, int height, int fps)
+    : path_(std::move(path)), width_(width), height_(height) {
+  // yuv420p (even sizes) for players' sake; constant frame rate; the moov atom first (faststart).
+  const std::string cmd = "ffmpeg -hide_banner -loglevel error -y -f rawvideo -pix_fmt rgb24 -s " + std::to_string(width) +
+                          "x" + std::to_string(height) + " -r " + std::to_string(fps) +
+                          " -i - -an -c:v libx264 -preset veryfast -crf 23 -pix_fmt yuv420p -vf 'pad=ceil(iw/2)*2:ceil(ih/2)*2'"
+                          " -movflags +faststart '" + path_ + "'";
+  pipe_ = popen(cmd.c_str(), "w");
+  if (!pipe_) throw std::runtime_error("cannot start ffmpeg for " + path_);
+}
+
+VideoWriter::~VideoWriter() {
+  if (pipe_) pclose(pipe_);
+}
+
+void VideoWriter::add(const Frame& f) {
+  if (!pipe_ || failed_) return;
+  if (f.camera.width != width_ || f.camera.height != height_ || f.rgb.empty())
+    throw std::logic_error("video " + path_ + ": a frame of another size or without rgb");
+  // A write to an ffmpeg that died fails (EPIPE; the campaign's processes ignore SIGPIPE): close() reports it.
+  if (fwrite(f.rgb.data(), 1, f.rgb.size(), pipe_) != f.rgb.size()) failed_ = true;
+  else ++frames_;
+}
+
+int VideoWriter::close() {
+  if (!pipe_) return frames_;
+  const int status = pclose(pipe_);
+  pipe_ = nullptr;
+  if (failed_ || status != 0) throw std::runtime_error("ffmpeg failed writing " + path_ + " (status " + std::to_string(status) + ")");
+  return frames_;
+}
+
+}  // namespace mm

@@ -1,0 +1,244 @@
+// Offscreen rendering (EGL; Mesa's llvmpipe on a CPU-only machine): rendered geometry agrees with
+// the scene to < 1 px and < 1 mm, segmentation labels the objects, rendering leaves the world as it
+// was, a video is an MP4 that ffprobe reads with the frames written, and a trial rendered again
+// from its seed matches its line in trials.jsonl.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <cmath>
+#include <cstdio>
+
+#include "../campaign/cli_helpers.h"
+#include "core/error.h"
+#include "render/image_io.h"
+#include "render/renderer.h"
+#include "sim/object_catalogue.h"
+#include "sim/sim_world.h"
+
+namespace mm {
+namespace {
+
+using ::testing::HasSubstr;
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+using testing_cli::readTrials;
+using testing_cli::runMinimanip;
+using testing_cli::TempDir;
+
+const RobotModel& panda() {
+  static const RobotModel robot = RobotModel::load("robots/panda/panda.yaml");
+  return robot;
+}
+
+Renderer& renderer() {
+  static std::unique_ptr<Renderer> r = [] {
+    std::string why;
+    auto made = Renderer::create("auto", &why);
+    if (!made) ADD_FAILURE() << "no offscreen OpenGL context: " << why;
+    return made;
+  }();
+  return *r;
+}
+
+// Two cubes on the bin floor at known poses (one turned 30 degrees), the arm at home.
+struct Scene {
+  std::unique_ptr<SimWorld> world;
+  std::vector<Pose> cubes;
+  double half = 0;
+  Scene() {
+    const ObjectCatalogue cat = loadObjectCatalogue("scenes/objects.yaml");
+    const ObjectKind cube = *cat.find("cube_5cm");
+    half = cube.half_size.z();
+    world = SimWorld::load("scenes/bin_table.xml", panda(), {cube, cube});
+    world->reset(panda().home());
+    const Pose T_bin = world->site("bin_region").first;
+    for (int i = 0; i < 2; ++i) {
+      Vec3 p = T_bin.translation() + Vec3(i == 0 ? -0.04 : 0.05, i == 0 ? 0.05 : -0.06, 0);
+      p.z() = world->surfaceBelow(p + Vec3(0, 0, 0.2), -1) + half;
+      cubes.push_back(makePose(p, Mat3(Eigen::AngleAxisd(i == 0 ? 0.0 : M_PI / 6, Vec3::UnitZ()))));
+      world->setObjectPose(i, cubes.back());
+    }
+    world->updateKinematics();
+  }
+};
+
+TEST(Render, DepthAndPixelsMatchTheSceneGeometry) {
+  Scene s;
+  const CameraModel cam = renderer().camera(*s.world, "overhead_camera", 640, 480, "(test)");
+  const Frame f = renderer().render(*s.world, cam, kRgb | kDepth | kSegmentation);
+  ASSERT_EQ(f.rgb.size(), 640u * 480u * 3u);
+  ASSERT_EQ(f.depth.size(), 640u * 480u);
+  ASSERT_EQ(f.segmentation.size(), 640u * 480u);
+  auto at = [&](const auto& v, int u, int r) { return v[static_cast<size_t>(r) * 640 + static_cast<size_t>(u)]; };
+
+  for (int i = 0; i < 2; ++i) {
+    // The pixels whose ray meets the top face 2 mm or more inside its edges must show that face:
+    // the cube's label and the plane's depth. Which pixels they are comes from the geometry alone.
+    const Pose& T = s.cubes[static_cast<size_t>(i)];
+    const Vec3 top = T * Vec3(0, 0, s.half);
+    const Vec3 n_cam = cam.T_world_camera.linear().transpose() * Vec3::UnitZ();  // the plane's normal in the camera
+    const Vec3 p_cam = cam.T_world_camera.inverse() * top;
+    double su = 0, sv = 0, worst_depth = 0;
+    long count = 0, wrong_label = 0;
+    for (int r = 0; r < 480; ++r)
+      for (int u = 0; u < 640; ++u) {
+        const Vec3 ray((u - cam.cx) / cam.fx, (r - cam.cy) / cam.fy, 1.0);
+        const double z_plane = n_cam.dot(p_cam) / n_cam.dot(ray);
+        const Vec3 local = T.inverse() * (cam.T_world_camera * (z_plane * ray));
+        if (std::abs(local.x()) > s.half - 0.002 || std::abs(local.y()) > s.half - 0.002) continue;
+        wrong_label += at(f.segmentation, u, r) != kSegmentObject0 + i;
+        worst_depth = std::max(worst_depth, std::abs(at(f.depth, u, r) - z_plane));
+        su += u, sv += r, ++count;
+      }
+    ASSERT_GT(count, 200) << "cube " << i << " shows its top face";
+    EXPECT_EQ(wrong_label, 0) << "cube " << i << ": pixels of its top face labelled otherwise";
+    EXPECT_LT(worst_depth, 0.001) << "cube " << i << " at the right depth";
+    // Those pixels' centroid is the face centre's projection (a 46 mm square's perspective shifts
+    // its centroid by far less than 0.1 px here).
+    const Vec3 c = cam.project(top);
+    EXPECT_LT(std::hypot(su / count - c.x(), sv / count - c.y()), 1.0) << "cube " << i << " at the right pixel";
+    // The face's labelled area: its projected area (side 0.05 m at depth z: (0.05 fx / z)^2 px), within 10%.
+    long labelled = 0;
+    for (uint8_t l : f.segmentation) labelled += l == kSegmentObject0 + i;
+    const double expected = std::pow(2 * s.half * cam.fx / c.z(), 2);
+    EXPECT_GT(labelled, 0.9 * expected) << "cube " << i;
+    EXPECT_LT(labelled, 1.6 * expected) << "cube " << i << " (its sides show a little in perspective)";
+    // A pixel at its centre, unprojected with its depth, is the top face's centre.
+    const int u = static_cast<int>(std::lround(c.x())), r = static_cast<int>(std::lround(c.y()));
+    EXPECT_LT((cam.unproject(u, r, at(f.depth, u, r)) - top).norm(), 0.0015);
+  }
+  // Scene pixels unproject onto the surfaces below them (table, bins, floor) within 1 mm.
+  int checked = 0;
+  for (int r = 10; r < 480; r += 37)
+    for (int u = 10; u < 640; u += 41) {
+      if (at(f.segmentation, u, r) != kSegmentScene || at(f.depth, u, r) <= 0) continue;
+      const Vec3 p = cam.unproject(u, r, at(f.depth, u, r));
+      const double surface = s.world->surfaceBelow(p + Vec3(0, 0, 0.0005), -1);
+      if (std::abs(p.z() - surface) > 0.005) continue;  // a wall's side seen at a grazing angle
+      EXPECT_NEAR(p.z(), surface, 0.001) << "pixel " << u << "," << r;
+      ++checked;
+    }
+  EXPECT_GT(checked, 100);
+  // The robot is labelled (its base in view).
+  long robot = 0;
+  for (uint8_t l : f.segmentation) robot += l == kSegmentRobot;
+  EXPECT_GT(robot, 1000);
+}
+
+TEST(Render, RenderingLeavesTheWorldAsItWas) {
+  Scene s;
+  const VecX q = s.world->armPositions();
+  const Pose T0 = s.world->object(1).T_world_object;
+  const double t = s.world->time();
+  const CameraModel cam = renderer().camera(*s.world, "overhead_camera", 320, 240, "(test)");
+  const Frame a = renderer().render(*s.world, cam, kRgb | kDepth | kSegmentation);
+  const Frame b = renderer().render(*s.world, cam, kRgb | kDepth | kSegmentation);
+  EXPECT_EQ(a.rgb, b.rgb) << "the same world renders the same image";
+  EXPECT_EQ(a.segmentation, b.segmentation);
+  EXPECT_EQ(s.world->armPositions(), q);
+  EXPECT_TRUE(s.world->object(1).T_world_object.isApprox(T0));
+  EXPECT_EQ(s.world->time(), t);
+}
+
+TEST(Render, UnknownCameraIsBadInput) {
+  Scene s;
+  try {
+    renderer().camera(*s.world, "nope", 64, 48, "exp.yaml");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("exp.yaml"));
+    EXPECT_THAT(e.what(), HasSubstr("overhead_camera"));
+  }
+}
+
+TEST(Render, DepthPngRoundTripsToATenthOfAMillimetre) {
+  Scene s;
+  TempDir tmp;
+  const CameraModel cam = renderer().camera(*s.world, "overhead_camera", 160, 120, "(test)");
+  const Frame f = renderer().render(*s.world, cam, kDepth);
+  const std::string path = (tmp.path() / "d.png").string();
+  writeDepthPng(path, f);
+  int w = 0, h = 0;
+  const std::vector<float> z = readDepthPng(path, &w, &h);
+  ASSERT_EQ(w, 160);
+  ASSERT_EQ(h, 120);
+  for (size_t i = 0; i < z.size(); ++i) ASSERT_NEAR(z[i], f.depth[i], 0.5 * kDepthPngScale + 1e-6);
+}
+
+TEST(Render, VideoIsAnMp4FfprobeReads) {
+  Scene s;
+  TempDir tmp;
+  const CameraModel cam = renderer().camera(*s.world, "overhead_camera", 320, 240, "(test)");
+  const std::string path = (tmp.path() / "v.mp4").string();
+  VideoWriter video(path, 320, 240, 25);
+  for (int k = 0; k < 30; ++k) {
+    VecX q = panda().home();
+    q[0] += 0.02 * k;
+    s.world->setArm(q);
+    s.world->updateKinematics();
+    video.add(renderer().render(*s.world, cam, kRgb));
+  }
+  EXPECT_EQ(video.close(), 30);
+  FILE* p = popen(("ffprobe -v error -count_frames -select_streams v:0 -show_entries "
+                   "stream=codec_name,width,height,nb_read_frames,avg_frame_rate -of csv=p=0 '" + path + "'").c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  char buf[256] = "";
+  const size_t n = fread(buf, 1, sizeof buf - 1, p);
+  buf[n] = 0;
+  EXPECT_EQ(pclose(p), 0);
+  EXPECT_EQ(std::string(buf), "h264,320,240,25/1,30\n");
+}
+
+TEST(Render, ATrialRenderedAgainMatchesItsLineAndWritesItsImages) {
+  TempDir tmp;
+  const std::string out = (tmp.path() / "run").string();
+  // The campaign renders trial 1's end in the workers; trial 2 is rendered afterwards from its seed.
+  const auto run = runMinimanip("run experiments/quickstart.yaml --trials 3 --jobs 2 --out " + out +
+                                " --set progress=none --set render.keyframes=close_gripper,end --set render.trials=1");
+  ASSERT_EQ(run.code, 0) << run.out;
+  EXPECT_TRUE(fs::exists(fs::path(out) / "renders/trial_000001/01_close_gripper.png"));
+  EXPECT_TRUE(fs::exists(fs::path(out) / "renders/trial_000001/02_end.png"));
+  EXPECT_FALSE(fs::exists(fs::path(out) / "renders/trial_000000"));
+  const auto r = runMinimanip("render " + out + " --trial 2 --set render.keyframes=place --set render.video=false");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("Replay matches trial 2"));
+  const fs::path dir = fs::path(out) / "renders/trial_000002";
+  const cv::Mat rgb = cv::imread((dir / "01_place.png").string(), cv::IMREAD_UNCHANGED);
+  EXPECT_EQ(rgb.cols, 640);
+  EXPECT_EQ(rgb.rows, 480);
+  EXPECT_EQ(rgb.channels(), 3);
+  const cv::Mat depth = cv::imread((dir / "01_place_depth.png").string(), cv::IMREAD_UNCHANGED);
+  EXPECT_EQ(depth.type(), CV_16UC1);
+  const cv::Mat seg = cv::imread((dir / "01_place_seg.png").string(), cv::IMREAD_UNCHANGED);
+  EXPECT_EQ(seg.type(), CV_8UC1);
+  EXPECT_FALSE(fs::exists(dir / "trial.mp4"));
+
+  // A line that says otherwise is found out.
+  std::vector<json> trials = readTrials(out);
+  {
+    std::ofstream o(fs::path(out) / "trials.jsonl");
+    for (json& t : trials) {
+      if (t["trial"] == 2) t["place_position_error"] = 0.5;
+      o << t.dump() << "\n";
+    }
+  }
+  const auto differs = runMinimanip("render " + out + " --trial 2 --set render.keyframes=end --set render.video=false");
+  EXPECT_EQ(differs.code, 1) << differs.out;
+  EXPECT_THAT(differs.out, HasSubstr("place_position_error: 0.5 recorded"));
+
+  // Bad input: a trial the campaign did not run, a setting that is not a render setting.
+  const auto missing = runMinimanip("render " + out + " --trial 7");
+  EXPECT_EQ(missing.code, 2) << missing.out;
+  EXPECT_THAT(missing.out, HasSubstr("no line for trial 7"));
+  const auto bad = runMinimanip("render " + out + " --trial 2 --set seed=4");
+  EXPECT_EQ(bad.code, 2) << bad.out;
+  EXPECT_THAT(bad.out, HasSubstr("render.KEY=VALUE"));
+  const auto fps = runMinimanip("run experiments/quickstart.yaml --trials 1 --out " + out + "x --set render.fps=30");
+  EXPECT_EQ(fps.code, 2) << fps.out;
+  EXPECT_THAT(fps.out, HasSubstr("render.fps"));
+}
+
+}  // namespace
+}  // namespace mm
