@@ -11,6 +11,7 @@
 #include "campaign/stats.h"
 #include "campaign/trial.h"
 #include "core/error.h"
+#include "perception/camera_perception.h"
 #include "render/renderer.h"
 #include "sim/hardware.h"
 #include "sim/sim_world.h"
@@ -19,6 +20,9 @@ namespace mm {
 
 std::string benchmarkHarness(const Experiment& experiment, const std::string& command_line) {
   if (experiment.hardware != "mujoco") throw InputError(experiment.file, "the harness benchmark needs hardware: mujoco");
+  if (experiment.perception.mode == PerceptionMode::kCamera)
+    throw InputError(experiment.file, "the harness benchmark runs ground-truth or hardcoded perception (it times camera perception "
+                                      "itself, with the experiment's perception.camera settings)");
   Experiment e = experiment;
   e.bt_log = "all";  // the tree's cost is measured with every trial's SQLite log written
   const RobotModel robot = loadExperimentRobot(e);
@@ -179,6 +183,28 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
         for (int k = 0; k < n; ++k) r->render(*world, cam, kind);
         o << " " << name << " " << 1e3 * secs(t0, Clock::now()) / n << " ms" << (kind == (kRgb | kDepth | kSegmentation) ? "\n" : ",");
       }
+      // Camera perception on the same state: the depth image at its resolution, the sensor's
+      // noise, the detection (the last trial's objects are wherever it left them).
+      const CameraModel pcam = r->camera(*world, e.perception.camera, e.perception.camera_width, e.perception.camera_height, e.file);
+      const int n = 20;
+      double t_render = 0, t_noise = 0, t_detect = 0;
+      size_t found = 0;
+      Rng rng(1);
+      CameraPerceptionOptions co;
+      co.T_world_crop = cell.perception.T_world_crop;
+      co.crop_half = cell.perception.crop_half;
+      co.crop_height = cell.perception.crop_height;
+      for (int k = 0; k < n; ++k) {
+        const auto a = Clock::now();
+        Frame f = r->render(*world, pcam, kDepth);
+        const auto b = Clock::now();
+        applyDepthNoise(f, e.perception.noise, rng);
+        const auto c = Clock::now();
+        found = detectBoxes(f, cell.perception.shapes, co, rng).detections.size();
+        t_render += secs(a, b), t_noise += secs(b, c), t_detect += secs(c, Clock::now());
+      }
+      o << "  camera perception, " << pcam.width << "x" << pcam.height << " depth: render " << 1e3 * t_render / n << " ms, sensor noise "
+        << 1e3 * t_noise / n << " ms, detection " << 1e3 * t_detect / n << " ms (" << found << " objects found in the last trial's bin)\n";
     }
   }
   o.precision(1);

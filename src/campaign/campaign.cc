@@ -30,6 +30,7 @@
 #include "core/error.h"
 #include "planning/planner.h"
 #include "render/gl_context.h"
+#include "render/renderer.h"
 #include "sim/hardware.h"
 #include "sim/mjcf_robot.h"
 #include "sim/sim_world.h"
@@ -132,6 +133,12 @@ std::string summaryTable(const CampaignSummary& s) {
   t << "  Place Error:       " << s.place_mm_mean << " mm (mean), " << s.place_mm_max << " mm (max); " << s.orient_deg_mean
     << " deg (mean)\n";
   t << "  In-hand Slip:      " << s.slip_mm_mean << " mm (mean), " << s.slip_mm_max << " mm (max), grasp to release\n";
+  if (s.detections > 0) {
+    t << "  Camera Pose Error: centre " << s.det_centre_mm_mean << " mm (mean), " << s.det_centre_mm_max << " mm (max); rotation "
+      << s.det_rotation_deg_mean << " deg (mean), " << s.det_rotation_deg_max << " deg (max); MSSD " << s.det_mssd_mm_mean
+      << " mm (mean)\n";
+    t << "  Detections:        " << s.detections << " (" << s.false_detections << " false, " << s.missed_detections << " objects missed)\n";
+  }
   t << "  Collisions:        " << s.collision_events << " events in " << n << " trials\n";
   t << "  Objects placed:    " << s.objects_placed << " (" << s.objects_left_in_bin << " left in bins; " << s.bins_cleared << " of "
     << n << " bins empty)\n";
@@ -522,6 +529,16 @@ void checkCampaignInput(const Experiment& e) {
   const auto world = loadWorld(e, robot);
   makeCell(e, robot, *world);
   loadTree(e);
+  // The cameras named must exist; camera perception cannot run without a renderer.
+  if (e.perception.mode == PerceptionMode::kCamera || e.render.enabled()) {
+    std::string why;
+    const auto renderer = Renderer::create(e.render.egl, &why);
+    if (!renderer && e.perception.mode == PerceptionMode::kCamera)
+      throw InputError(e.file, "perception.mode camera needs an offscreen OpenGL context, and none can be made here: " + why);
+    if (renderer && e.perception.mode == PerceptionMode::kCamera)
+      renderer->camera(*world, e.perception.camera, 64, 48, e.file, "perception.camera");
+    if (renderer && e.render.enabled()) renderer->camera(*world, e.render.camera, 64, 48, e.file);
+  }
 }
 
 std::string runCampaign(const Experiment& e, const CampaignOptions& co) {

@@ -104,6 +104,17 @@ void TrialRecord::describe(RecordArchive& a) {
     l.field("tilt", k.tilt, "rad", "of its axis nearest the vertical");
     l.field("reason", k.reason, "", "why it was not picked: its last grasp's or push's failure, or not tried");
   }, "every object still in the bin at the end");
+  size_t n_det = o.detections.size();
+  a.list("detections", n_det, [&](size_t i, RecordArchive& d) {
+    if (d.reading() && o.detections.size() <= i) o.detections.resize(i + 1);
+    DetectionRecord& k = o.detections[i];
+    d.field("object", k.object, "", "the true object it was matched to (nearest centre within 3 cm; -1: a false detection)");
+    d.field("time", k.time, "s", "simulated, since the trial began");
+    d.field("centre_error", k.centre_error, "m", "distance of the estimated centre from the true one (-1: false detection)");
+    d.field("rotation_error", k.rotation_error, "rad", "the smallest angle between the estimated and the true orientation over the box's symmetries");
+    d.field("mssd", k.mssd, "m", "BOP's maximum symmetry-aware surface distance (the farthest corner, best symmetry)");
+  }, "camera perception: every object each perception found, against the simulator's truth (empty in the other modes)");
+  a.field("missed_detections", o.missed_detections, "", "camera perception: objects in the bin a perception did not find, summed over perceptions");
   a.field("reported_total", o.reported_total, "", "ReportCompletion's total (-1: never reported)");
   size_t n_failures = o.failures.size();
   a.list("failures", n_failures, [&](size_t i, RecordArchive& f) {
@@ -188,6 +199,17 @@ void CampaignSummary::describe(RecordArchive& a) {
     c.field("mean", slip_mm_mean, "mm", "over successes");
     c.field("max", slip_mm_max, "mm", "");
   }, "");
+  a.object("camera_pose_error", [&](RecordArchive& c) {
+    c.field("detections", detections, "", "objects found by camera perceptions, every trial");
+    c.field("false_detections", false_detections, "", "detections near no object");
+    c.field("missed_detections", missed_detections, "", "objects in the bin a perception did not find");
+    c.field("centre_mm_mean", det_centre_mm_mean, "mm", "over the matched detections");
+    c.field("centre_mm_max", det_centre_mm_max, "mm", "");
+    c.field("rotation_deg_mean", det_rotation_deg_mean, "deg", "up to the boxes' symmetries");
+    c.field("rotation_deg_max", det_rotation_deg_max, "deg", "");
+    c.field("mssd_mm_mean", det_mssd_mm_mean, "mm", "BOP's MSSD");
+    c.field("mssd_mm_max", det_mssd_mm_max, "mm", "");
+  }, "camera perception against the simulator's truth (zeros in the other modes)");
   a.object("place_orientation_error_deg", [&](RecordArchive& c) {
     c.field("mean", orient_deg_mean, "deg", "over successes");
     c.field("max", orient_deg_max, "deg", "");
@@ -433,6 +455,17 @@ void SummaryBuilder::add(const TrialRecord& r) {
   if (std::isfinite(o.total_time)) all_time_ += static_cast<SummaryBuilder::Int128>(std::llround(o.total_time * 1e9));
   if (std::isfinite(o.sim_time)) sim_total_ += static_cast<SummaryBuilder::Int128>(std::llround(o.sim_time * 1e9));
   s.objects_left_in_bin += o.objects_left_in_bin;
+  for (const DetectionRecord& d : o.detections) {
+    ++s.detections;
+    if (d.object < 0) {
+      ++s.false_detections;
+      continue;
+    }
+    det_centre_mm_.add(1000.0 * d.centre_error);
+    det_rotation_deg_.add(180.0 / M_PI * d.rotation_error);
+    det_mssd_mm_.add(1000.0 * d.mssd);
+  }
+  s.missed_detections += o.missed_detections;
   const bool harness_failure = o.failure_kind == FailureKind::kCrash || o.failure_kind == FailureKind::kHang;
   s.bins_cleared += o.objects_left_in_bin == 0 && !harness_failure;  // a crashed trial's bin is unknown
   s.timeouts += o.tree_status == "TIMEOUT";
@@ -531,6 +564,12 @@ CampaignSummary SummaryBuilder::get() const {
   }
   s.place_mm_mean = pm.mean, s.place_mm_max = pm.max;
   s.slip_mm_mean = sl.mean, s.slip_mm_max = sl.max;
+  {
+    const Moments dc = det_centre_mm_.get(), dr = det_rotation_deg_.get(), dm = det_mssd_mm_.get();
+    s.det_centre_mm_mean = dc.mean, s.det_centre_mm_max = dc.max;
+    s.det_rotation_deg_mean = dr.mean, s.det_rotation_deg_max = dr.max;
+    s.det_mssd_mm_mean = dm.mean, s.det_mssd_mm_max = dm.max;
+  }
   s.orient_deg_mean = od.mean, s.orient_deg_max = od.max;
   s.collisions_per_100 = n ? 100.0 * s.collision_events / n : 0.0;
   return s;

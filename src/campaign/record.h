@@ -36,7 +36,7 @@ class RecordArchive {
   virtual bool reading() const { return false; }
 };
 
-constexpr int kTrialSchema = 6;  // 3: attempts, failure kinds crash and hang; 4: picks' offset; 5: forces, contacts; 6: picks' first_pass
+constexpr int kTrialSchema = 7;  // 3: attempts, failure kinds crash and hang; 4: picks' offset; 5: forces, contacts; 6: picks' first_pass; 7: detections
 
 /// One trial as trials.jsonl holds it.
 struct TrialRecord {
@@ -83,6 +83,9 @@ struct CampaignSummary {
   std::map<std::string, double> breakdown;  ///< mean over successes [s]
   double place_mm_mean = 0, place_mm_max = 0, orient_deg_mean = 0, orient_deg_max = 0;
   double slip_mm_mean = 0, slip_mm_max = 0;
+  long detections = 0, false_detections = 0, missed_detections = 0;  ///< camera perception
+  double det_centre_mm_mean = 0, det_centre_mm_max = 0, det_rotation_deg_mean = 0, det_rotation_deg_max = 0;
+  double det_mssd_mm_mean = 0, det_mssd_mm_max = 0;
   long collision_events = 0;
   double collisions_per_100 = 0, max_tracking_error = 0;
   long sim_unstable = 0, dropped = 0, objects_placed = 0, objects_left_in_bin = 0, bins_cleared = 0, timeouts = 0;
@@ -116,7 +119,7 @@ class SummaryBuilder {
 
  private:
   CampaignSummary s_;
-  ExactMoments cycle_, sim_, place_mm_, orient_deg_, slip_mm_;
+  ExactMoments cycle_, sim_, place_mm_, orient_deg_, slip_mm_, det_centre_mm_, det_rotation_deg_, det_mssd_mm_;
   std::map<std::string, ExactMoments> parts_, mttr_;
   std::map<std::string, FaultStats> kinds_;
   Int128 all_time_ = 0, sim_total_ = 0;

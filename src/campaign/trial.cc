@@ -37,7 +37,7 @@ RenderSetup::RenderSetup(RenderSetup&&) noexcept = default;
 RenderSetup setUpRendering(const Experiment& e) {
   RenderSetup r;
   r.options = e.render;
-  if (!e.render.enabled()) return r;
+  if (!e.render.enabled() && e.perception.mode != PerceptionMode::kCamera) return r;
   std::string why;
   r.renderer = Renderer::create(e.render.egl, &why);
   if (!r.renderer) {
@@ -73,6 +73,15 @@ TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial
   rendered_.clear();
   if (renderer_ && render_.renders(trial))
     renders = std::make_unique<TrialRenders>(*renderer_, world, render_, trialRenderDir(render_dir_, trial), e_.file);
+  // Camera perception reads depth images rendered now, with the sensor's noise drawn from the
+  // trial's own stream.
+  Rng camera_noise = Rng::stream(e_.seed, trial, Purpose::kCamera);
+  if (renderer_ && e_.perception.mode == PerceptionMode::kCamera)
+    backend.setCameraSource([&](const std::string& name, int width, int height, Frame& frame, std::string*) {
+      frame = renderer_->render(world, renderer_->camera(world, name, width, height, e_.file), kDepth);
+      applyDepthNoise(frame, e_.perception.noise, camera_noise);
+      return true;
+    });
   Hardware& tapped = renders ? renders->wrap(backend, [&] { stages_ended(false); }) : backend;
   Hardware& hw = faults ? faults->wrap(tapped) : tapped;
   TrialContext ctx(hw, *cell_.robot, cell_.statics, e_.task, cell_.perception, e_.seed, trial);
@@ -142,6 +151,10 @@ Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& worl
   c.perception.hardcoded_pose = makePose(T_bin.translation() + Vec3(0, 0, proto.half_size.z()), Mat3::Identity());
   c.perception.hardcoded_half = proto.half_size;
   c.perception.T_world_crop = T_bin;
+  for (const std::string& k : c.spawn.kinds) {
+    const ObjectKind* kind = c.spawn.loaded.find(k);
+    c.perception.shapes.push_back({kind->name, kind->half_size, kind->mass});
+  }
   c.perception.crop_half = bin_half;
   return c;
 }

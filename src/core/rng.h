@@ -11,6 +11,7 @@ namespace mm {
 /// What a stream is used for; each purpose gets an independent stream.
 enum class Purpose : uint32_t {
   kScene = 1, kPerception = 2, kGrasp = 3, kIk = 4, kPlanner = 5, kFaults = 6, kMisc = 7,
+  kCamera = 8,  ///< a camera's sensor noise
 };
 
 uint64_t splitmix64(uint64_t& state);

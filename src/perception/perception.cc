@@ -5,10 +5,19 @@
 namespace mm {
 
 void PerceptionOptions::declare(ConfigArchive& a) {
-  a.named("mode", mode, {{"hardcoded", PerceptionMode::kHardcoded}, {"ground_truth", PerceptionMode::kGroundTruth}},
-          "hardcoded: assume the object at the bin center, yaw 0; ground_truth: simulator poses");
+  a.named("mode", mode,
+          {{"hardcoded", PerceptionMode::kHardcoded}, {"ground_truth", PerceptionMode::kGroundTruth}, {"camera", PerceptionMode::kCamera}},
+          "hardcoded: assume the object at the bin center, yaw 0; ground_truth: simulator poses; camera: boxes found in the "
+          "depth image of `camera` by geometry alone (support plane, clusters, top face, outline fit; no colour, no simulator ids)");
   a.value("noise_position", noise_position, {0.0, 0.05}, "m", "std of Gaussian noise on perceived x and y");
   a.value("noise_yaw", noise_yaw, {0.0, 0.5}, "rad", "std of Gaussian noise on perceived yaw");
+  a.value("camera", camera, "camera mode: the scene's camera perception reads");
+  a.value("camera_width", camera_width, {64, 4096}, "px", "camera mode: image width");
+  a.value("camera_height", camera_height, {48, 4096}, "px", "camera mode: image height");
+  a.value("depth_noise", noise.k, {0.0, 0.05}, "1/m",
+          "camera mode: a stereo camera's depth noise, sigma = k z^2 (0.0015: 1.5 mm at 1 m, 2.4 mm at the bin's 1.27 m); 0: none");
+  a.value("edge_dropout", noise.edge_dropout, {0.0, 1.0}, "",
+          "camera mode: the chance a pixel at a depth edge (its 3x3 neighbourhood spanning more than 1 cm) has no depth, as stereo matching fails there");
 }
 
 bool insideCrop(const ObjectState& o, const PerceptionOptions& opt) {

@@ -1,5 +1,6 @@
 // Perception modes, as the source's three phases: hardcoded (a fixed pose, no sensing), ground
-// truth from the simulator (optionally with Gaussian noise), and later camera-based estimation.
+// truth from the simulator (optionally with Gaussian noise), and a camera's depth image
+// (perception/camera_perception.h).
 #pragma once
 #include <string>
 #include <vector>
@@ -7,10 +8,11 @@
 #include "core/config.h"
 #include "core/geometry.h"
 #include "core/rng.h"
+#include "perception/camera_perception.h"
 
 namespace mm {
 
-enum class PerceptionMode { kHardcoded, kGroundTruth };
+enum class PerceptionMode { kHardcoded, kGroundTruth, kCamera };
 
 struct PerceptionOptions {
   /// Keys mode, noise_position, noise_yaw (section "perception").
@@ -26,6 +28,11 @@ struct PerceptionOptions {
   Pose T_world_crop = Pose::Identity();
   Vec3 crop_half = Vec3::Zero();
   double crop_height = 0.1;  ///< [m]
+  // Camera mode.
+  std::string camera = "overhead_camera";
+  int camera_width = 1280, camera_height = 960;  ///< [px]
+  DepthNoise noise;  ///< the sensor's (applied where the image is made)
+  std::vector<KnownShape> shapes;  ///< the kinds that can be in the bin (the experiment's catalogue kinds)
 };
 
 /// True when `o` lies inside the sensor's crop box (see PerceptionOptions).

@@ -87,13 +87,13 @@ Pose cameraPose(const mjData* d, int cam) {
 }  // namespace
 
 CameraModel Renderer::camera(const SimWorld& world, const std::string& name, int width, int height,
-                             const std::string& file) const {
+                             const std::string& file, const std::string& key) const {
   const mjModel* m = world.mujocoModel();
   const int cam = mj_name2id(m, mjOBJ_CAMERA, name.c_str());
   if (cam < 0) {
     std::string names;
     for (int i = 0; i < m->ncam; ++i) names += std::string(names.empty() ? "" : ", ") + mj_id2name(m, mjOBJ_CAMERA, i);
-    throw InputError(file, "render.camera: the scene has no camera '" + name + "' (expected one of: " +
+    throw InputError(file, key + ": the scene has no camera '" + name + "' (expected one of: " +
                                (names.empty() ? "none defined" : names) + ")");
   }
   CameraModel c;

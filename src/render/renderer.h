@@ -37,9 +37,10 @@ class Renderer {
 
   /// The OpenGL renderer, its version and the EGL platform (pixels differ between renderers).
   const std::string& description() const;
-  /// The scene camera `name` at width x height [px]; throws InputError naming `file` when the
-  /// scene has no such camera.
-  CameraModel camera(const SimWorld& world, const std::string& name, int width, int height, const std::string& file) const;
+  /// The scene camera `name` at width x height [px]; throws InputError naming `file` and the key
+  /// that named the camera when the scene has no such camera.
+  CameraModel camera(const SimWorld& world, const std::string& name, int width, int height, const std::string& file,
+                     const std::string& key = "render.camera") const;
   /// Renders the world as it is now through `camera` (its pose is re-read: a wrist camera moves).
   /// `kinds`: a mask of ImageKind.
   Frame render(const SimWorld& world, const CameraModel& camera, unsigned kinds);

@@ -27,6 +27,14 @@ class HardwareBase : public Hardware {
     return out;
   }
   ObjectState object(int i) const override { return w_.object(i); }
+  bool capture(const std::string& name, int width, int height, Frame& frame, std::string* why) override {
+    if (!camera_) {
+      *why = "no camera source (rendering is not set up)";
+      return false;
+    }
+    return camera_(name, width, height, frame, why);
+  }
+  void setCameraSource(CameraSource source) override { camera_ = std::move(source); }
   Pose tcpPose() const override { return w_.tcpPose(); }
   std::vector<Obstacle> obstacles() const override { return w_.placedObstacles(); }
   std::vector<int> objectsTouched() const override { return w_.objectsTouched(); }
@@ -41,6 +49,7 @@ class HardwareBase : public Hardware {
   std::vector<int> active_;
   VecX q_cmd_, qd_cmd_, qdd_cmd_;
   double grip_target_, grip_force_;
+  CameraSource camera_;
 };
 
 class MujocoHardware final : public HardwareBase {

@@ -3,16 +3,22 @@
 // mock_components/GenericSystem) and moves objects only when grasped. Task code is identical for
 // both; a real-robot backend would implement the same interface.
 #pragma once
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "core/camera.h"
 #include "core/geometry.h"
 #include "robot/robot_model.h"
 
 namespace mm {
 
 class SimWorld;
+
+/// Reads camera `name` at width x height as the world is now (the campaign wires a renderer and
+/// the sensor's noise in); false with `why` said when it cannot.
+using CameraSource = std::function<bool(const std::string& name, int width, int height, Frame& frame, std::string* why)>;
 
 class Hardware {
  public:
@@ -41,6 +47,13 @@ class Hardware {
   /// The payload the servo compensates, as Franka's setLoad: `mass` [kg] with its centre at
   /// `com_tcp` in the TCP frame; mass 0 clears it.
   virtual void setPayload(double mass, const Vec3& com_tcp) = 0;
+
+  /// A camera of the cell: its depth image (and intrinsics) now. frame.camera.T_world_camera is
+  /// where the simulator has it; perception replaces it with calibrated extrinsics when it has
+  /// them. False with `why` when the backend has no camera.
+  virtual bool capture(const std::string& name, int width, int height, Frame& frame, std::string* why) = 0;
+  /// Where capture() gets its images (the backends have none of their own).
+  virtual void setCameraSource(CameraSource source) = 0;
 
   /// Ground truth, used by the ground-truth perception mode and by the evaluation.
   virtual std::vector<ObjectState> objects() const = 0;
@@ -84,6 +97,10 @@ class ForwardingHardware : public Hardware {
   void attach(int i, bool on) override { in_.attach(i, on); }
   void setStiff(bool on) override { in_.setStiff(on); }
   void setPayload(double mass, const Vec3& com_tcp) override { in_.setPayload(mass, com_tcp); }
+  bool capture(const std::string& name, int width, int height, Frame& frame, std::string* why) override {
+    return in_.capture(name, width, height, frame, why);
+  }
+  void setCameraSource(CameraSource source) override { in_.setCameraSource(std::move(source)); }
   std::vector<ObjectState> objects() const override { return in_.objects(); }
   ObjectState object(int i) const override { return in_.object(i); }
   Vec3 objectVelocity(int i) const override { return in_.objectVelocity(i); }

@@ -15,6 +15,15 @@ struct StageRecord {
   double sim_seconds = 0;      ///< simulated execution time in this stage
 };
 
+/// One object a camera perception found, against the simulator's truth (evaluation only).
+struct DetectionRecord {
+  int object = -1;        ///< the true object it was matched to (nearest centre within 3 cm); -1: none (a false detection)
+  double time = 0;        ///< [s] simulated, since the trial began
+  double centre_error = 0;    ///< [m]
+  double rotation_error = 0;  ///< [rad] up to the box's symmetries
+  double mssd = 0;            ///< [m] BOP's maximum symmetry-aware surface distance
+};
+
 /// One object the robot let go of, and where it ended up.
 struct PickRecord {
   int object = -1;                 ///< index in the scene's object pool
@@ -93,6 +102,8 @@ struct TrialOutcome {
   long collision_checks = 0;
   double grasp_opening = 0;  ///< [m] per finger after the last close
   std::vector<PickRecord> picks;  ///< every object let go of, in order
+  std::vector<DetectionRecord> detections;  ///< camera mode: every detection of every perception
+  int missed_detections = 0;      ///< camera mode: objects in the bin a perception did not find
   std::vector<LeftRecord> left;   ///< every object left in the bin at the end
   std::vector<RecordedFailure> failures;
   std::vector<FaultRecord> faults;  ///< injected faults

@@ -14,6 +14,7 @@
 #include "core/error.h"
 #include "render/image_io.h"
 #include "render/renderer.h"
+#include "test_renderer.h"
 #include "sim/object_catalogue.h"
 #include "sim/sim_world.h"
 
@@ -32,15 +33,7 @@ const RobotModel& panda() {
   return robot;
 }
 
-Renderer& renderer() {
-  static std::unique_ptr<Renderer> r = [] {
-    std::string why;
-    auto made = Renderer::create("auto", &why);
-    if (!made) ADD_FAILURE() << "no offscreen OpenGL context: " << why;
-    return made;
-  }();
-  return *r;
-}
+using testing_render::renderer;
 
 // Two cubes on the bin floor at known poses (one turned 30 degrees), the arm at home.
 struct Scene {

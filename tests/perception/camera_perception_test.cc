@@ -1,0 +1,179 @@
+// Camera perception: boxes found in a rendered depth image by geometry alone (same-coloured
+// objects; no colour, no simulator id) at the right pose; the depth noise model; pose errors that
+// respect a box's symmetries.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "../campaign/cli_helpers.h"
+#include "perception/camera_perception.h"
+#include "render/renderer.h"
+#include "../render/test_renderer.h"
+#include "sim/object_catalogue.h"
+#include "sim/sim_world.h"
+
+namespace mm {
+namespace {
+
+const RobotModel& panda() {
+  static const RobotModel robot = RobotModel::load("robots/panda/panda.yaml");
+  return robot;
+}
+
+using testing_render::renderer;
+
+// Four grey cubes in the bin at known yaws, 1280 x 960 depth from the overhead camera.
+struct Bin {
+  std::unique_ptr<SimWorld> world;
+  std::vector<Pose> truth;
+  ObjectKind cube;
+  CameraPerceptionOptions options;
+  Frame frame;
+  Bin() {
+    cube = *loadObjectCatalogue("scenes/objects.yaml").find("cube_5cm");
+    cube.rgba = {0.6, 0.6, 0.6, 1};
+    cube.has_rgba = true;
+    world = SimWorld::load("scenes/bin_table.xml", panda(), {cube, cube, cube, cube});
+    world->reset(panda().home());
+    const auto [T_bin, half] = world->site("bin_region");
+    const Vec3 offsets[] = {{-0.06, 0.06, 0}, {0.06, 0.07, 0}, {-0.05, -0.07, 0}, {0.07, -0.06, 0}};
+    const double yaws[] = {0.0, 0.3, -0.7, 1.2};
+    for (int i = 0; i < 4; ++i) {
+      Vec3 p = T_bin * offsets[i];
+      p.z() = world->surfaceBelow(p + Vec3(0, 0, 0.2), -1) + cube.half_size.z();
+      truth.push_back(makePose(p, rotZ(yaws[i])));
+      world->setObjectPose(i, truth.back());
+    }
+    world->updateKinematics();
+    options.T_world_crop = T_bin;
+    options.crop_half = half;
+    const CameraModel cam = renderer().camera(*world, "overhead_camera", 1280, 960, "(test)");
+    frame = renderer().render(*world, cam, kDepth);
+  }
+  // The detection nearest each true cube, with its errors.
+  std::vector<PoseError> errors(const CameraPerceptionResult& r) const {
+    std::vector<PoseError> out;
+    for (const Pose& T : truth) {
+      const CameraDetection* best = nullptr;
+      for (const CameraDetection& d : r.detections)
+        if (!best || (d.object.T_world_object.translation() - T.translation()).norm() <
+                         (best->object.T_world_object.translation() - T.translation()).norm())
+          best = &d;
+      out.push_back(best ? poseError(best->object.T_world_object, T, cube.half_size) : PoseError{1, 1, 1});
+    }
+    return out;
+  }
+};
+
+TEST(CameraPerception, FindsSameColouredCubesFromDepthAlone) {
+  Bin bin;
+  Rng rng(7);
+  const CameraPerceptionResult r = detectBoxes(bin.frame, {{"cube_5cm", bin.cube.half_size, 0.1}}, bin.options, rng);
+  ASSERT_TRUE(r.ok) << r.reason;
+  EXPECT_EQ(r.detections.size(), 4u);
+  for (const PoseError& e : bin.errors(r)) {
+    EXPECT_LT(e.centre, 0.001);
+    EXPECT_LT(e.rotation, 0.5 * M_PI / 180);
+  }
+}
+
+TEST(CameraPerception, WithStereoDepthNoiseThePosesStayWithinTwoMillimetresAndADegree) {
+  Bin bin;
+  Rng noise(11);
+  applyDepthNoise(bin.frame, DepthNoise{}, noise);
+  Rng rng(7);
+  const CameraPerceptionResult r = detectBoxes(bin.frame, {{"cube_5cm", bin.cube.half_size, 0.1}}, bin.options, rng);
+  ASSERT_TRUE(r.ok) << r.reason;
+  EXPECT_EQ(r.detections.size(), 4u);
+  double rotation = 0;
+  for (const PoseError& e : bin.errors(r)) {
+    EXPECT_LT(e.centre, 0.002);
+    EXPECT_LT(e.rotation, 2 * M_PI / 180);
+    EXPECT_LT(e.mssd, 0.003);
+    rotation += e.rotation / 4;
+  }
+  EXPECT_LT(rotation, M_PI / 180) << "mean rotation error";
+}
+
+TEST(CameraPerception, DepthNoiseGrowsWithDepthSquaredAndDropsEdges) {
+  Bin bin;
+  Frame noisy = bin.frame;
+  Rng rng(3);
+  applyDepthNoise(noisy, DepthNoise{}, rng);
+  double sum = 0, sum2 = 0, zsum = 0;
+  long n = 0, dropped = 0;
+  for (size_t i = 0; i < noisy.depth.size(); ++i) {
+    if (bin.frame.depth[i] <= 0) continue;
+    if (noisy.depth[i] == 0) {
+      ++dropped;
+      continue;
+    }
+    const double d = noisy.depth[i] - bin.frame.depth[i];
+    const double z = bin.frame.depth[i];
+    if (z < 1.2 || z > 1.3) continue;
+    sum += d, sum2 += d * d, zsum += z, ++n;
+  }
+  ASSERT_GT(n, 10000);
+  const double z = zsum / n, sigma = std::sqrt(sum2 / n - (sum / n) * (sum / n));
+  EXPECT_NEAR(sigma, 0.0015 * z * z, 0.1 * 0.0015 * z * z) << "at " << z << " m";
+  EXPECT_NEAR(sum / n, 0.0, 0.0001);
+  EXPECT_GT(dropped, 500) << "edges (cube sides, bin walls) lose pixels";
+  EXPECT_LT(dropped, static_cast<long>(noisy.depth.size() / 20));
+}
+
+TEST(CameraPerception, PoseErrorRespectsTheBoxSymmetries) {
+  const Vec3 cube(0.025, 0.025, 0.025), slab(0.04, 0.025, 0.01);
+  const Pose T = makePose(Vec3(0.5, 0.1, 0.03), rotZ(0.3));
+  // A cube turned 90 degrees about any axis is the same cube.
+  for (const Vec3& axis : {Vec3::UnitX(), Vec3::UnitY(), Vec3::UnitZ()}) {
+    const Pose turned = T * makePose(Vec3::Zero(), Mat3(Eigen::AngleAxisd(M_PI / 2, axis)));
+    const PoseError e = poseError(turned, T, cube);
+    EXPECT_NEAR(e.rotation, 0, 1e-9);
+    EXPECT_NEAR(e.mssd, 0, 1e-9);
+  }
+  // A slab turned 90 degrees about z is not: its long side moved.
+  const PoseError e90 = poseError(T * makePose(Vec3::Zero(), rotZ(M_PI / 2)), T, slab);
+  EXPECT_NEAR(e90.rotation, M_PI / 2, 1e-9);
+  // ... but 180 degrees is.
+  EXPECT_NEAR(poseError(T * makePose(Vec3::Zero(), rotZ(M_PI)), T, slab).rotation, 0, 1e-9);
+  // 10 degrees off and 2 mm aside: the angle, the distance, and MSSD = the farthest corner's shift.
+  const Pose off = makePose(T.translation() + Vec3(0.002, 0, 0), T.linear() * rotZ(10 * M_PI / 180));
+  const PoseError e = poseError(off, T, cube);
+  EXPECT_NEAR(e.rotation, 10 * M_PI / 180, 1e-9);
+  EXPECT_NEAR(e.centre, 0.002, 1e-12);
+  EXPECT_GT(e.mssd, 2 * std::sin(5 * M_PI / 180) * cube.head<2>().norm());
+}
+
+TEST(CameraPerception, ACampaignInCameraModePicksWhatTheCameraSawAndRecordsItsErrors) {
+  testing_cli::TempDir tmp;
+  const std::string out = (tmp.path() / "cam").string();
+  const auto run = testing_cli::runMinimanip("run experiments/camera.yaml --trials 4 --jobs 2 --set progress=none --out " + out);
+  ASSERT_EQ(run.code, 0) << run.out;
+  EXPECT_THAT(run.out, ::testing::HasSubstr("Camera Pose Error"));
+  const auto trials = testing_cli::readTrials(out);
+  ASSERT_EQ(trials.size(), 4u);
+  for (const auto& t : trials) {
+    EXPECT_TRUE(t["success"].get<bool>()) << t.dump();
+    ASSERT_EQ(t["detections"].size(), t["objects_in_bin"].get<size_t>()) << "every cube found once, nothing else";
+    for (const auto& d : t["detections"]) {
+      EXPECT_GE(d["object"].get<int>(), 0);
+      EXPECT_LT(d["centre_error"].get<double>(), 0.002);
+      EXPECT_LT(d["rotation_error"].get<double>(), 2 * M_PI / 180);
+    }
+    EXPECT_EQ(t["missed_detections"], 0);
+  }
+  // Ground truth on the same seeds records no detections.
+  const auto gt = testing_cli::runMinimanip("run experiments/camera.yaml --trials 1 --jobs 1 --set progress=none "
+                                            "--set perception.mode=ground_truth --out " + out + "_gt");
+  ASSERT_EQ(gt.code, 0) << gt.out;
+  EXPECT_TRUE(testing_cli::readTrials(out + "_gt")[0]["detections"].empty());
+  // A camera the scene does not have is bad input, before any trial.
+  const auto bad = testing_cli::runMinimanip("run experiments/camera.yaml --trials 1 --set perception.camera=nope --out " + out + "_bad");
+  EXPECT_EQ(bad.code, 2) << bad.out;
+  EXPECT_THAT(bad.out, ::testing::HasSubstr("perception.camera: the scene has no camera 'nope'"));
+  EXPECT_THAT(bad.out, ::testing::HasSubstr("camera.yaml"));
+}
+
+}  // namespace
+}  // namespace mm
