@@ -250,6 +250,7 @@ json fingerprintOf(const Experiment& e) {
   f["gripper"] = "contents " + fileDigest(robot.gripper.file);
   f["scene"] = "contents " + fileDigest(e.scene_path);
   f["tree"] = "contents " + fileDigest(e.tree_path);
+  if (e.perception.extrinsics != "simulator") f["perception.extrinsics"] = "contents " + fileDigest(e.perception.extrinsics);
   return f;
 }
 

@@ -139,7 +139,9 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
   }
   readConfig(p, [&](ConfigArchive& a) { e.declare(a); },
              [&](const std::string& key, const std::string& value) {
-               return key == "gripper" && value == "default" ? value : resolvePath(value, p.origin(key));
+               // Names that are not files: the robot's own gripper, the simulator's camera pose.
+               const bool name = (key == "gripper" && value == "default") || (key == "perception.extrinsics" && value == "simulator");
+               return name ? value : resolvePath(value, p.origin(key));
              });
   e.file = path;
   e.sweep = p.sweeps();

@@ -433,6 +433,7 @@ std::string recordsMarkdown() {
   r.o.stages.resize(1);
   r.o.faults.resize(1);
   r.o.left.resize(1);
+  r.o.detections.resize(1);
   r.describe(t);
   Documenter s;
   CampaignSummary c;

@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "bt/sqlite_log.h"
+#include "campaign/calibrate.h"
 #include "core/error.h"
 #include "bt/trial_runner.h"
 #include "render/image_io.h"
@@ -151,6 +152,13 @@ Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& worl
   c.perception.hardcoded_pose = makePose(T_bin.translation() + Vec3(0, 0, proto.half_size.z()), Mat3::Identity());
   c.perception.hardcoded_half = proto.half_size;
   c.perception.T_world_crop = T_bin;
+  if (e.perception.mode == PerceptionMode::kCamera && e.perception.extrinsics != "simulator") {
+    std::string camera;
+    c.perception.T_world_camera = readExtrinsics(e.perception.extrinsics, &camera);
+    c.perception.calibrated = true;
+    if (camera != e.perception.camera)
+      throw InputError(e.perception.extrinsics, "calibrates camera '" + camera + "', expected perception.camera '" + e.perception.camera + "'");
+  }
   for (const std::string& k : c.spawn.kinds) {
     const ObjectKind* kind = c.spawn.loaded.find(k);
     c.perception.shapes.push_back({kind->name, kind->half_size, kind->mass});

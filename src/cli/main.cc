@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "campaign/bench.h"
+#include "campaign/calibrate.h"
 #include "campaign/campaign.h"
 #include "campaign/experiment.h"
 #include "campaign/ik_bench.h"
@@ -150,6 +151,19 @@ int main(int argc, char** argv) {
   render->add_option("--set", render_sets, "render.KEY=VALUE: what to render (default: every stage's key frame "
                                            "in rgb, depth and segmentation with previews, and the video)");
 
+  std::string calib_experiment = "experiments/camera.yaml";
+  std::vector<std::string> calib_sets;
+  mm::CalibrateOptions calib;
+  CLI::App* calibrate = app.add_subcommand("calibrate", "hand-eye calibration in simulation: eye-to-hand (the perception camera, a "
+                                                         "ChArUco board on the gripper) and eye-in-hand (the wrist camera, the board on the table), "
+                                                         "OpenCV's five methods, without and with image noise");
+  calibrate->add_option("experiment", calib_experiment, "the experiment whose robot, scene and perception camera to calibrate")->capture_default_str();
+  calibrate->add_option("--views", calib.views, "poses per mounting (at least 15)")->capture_default_str();
+  calibrate->add_option("--seed", calib.seed, "seed of the poses and the image noise")->capture_default_str();
+  calibrate->add_option("--noise", calib.pixel_noise, "std of the Gaussian image noise of the noisy runs [grey levels]")->capture_default_str();
+  calibrate->add_option("--out", calib.out_dir, "results folder (calibration.md, calibration.json, <camera>_extrinsics.yaml)")->capture_default_str();
+  calibrate->add_option("--set", calib_sets, "KEY=VALUE: an experiment key");
+
   // The worker process of a campaign (started by `run`, not by people): hidden from --help.
   RunArgs worker_args;
   CLI::App* worker = app.add_subcommand("worker", "");
@@ -164,9 +178,9 @@ int main(int argc, char** argv) {
   CLI::App* gate_doc = app.add_subcommand("gate-doc", "print every key of a gate's thresholds file as a Markdown table");
 
   try {
-    const std::vector<std::string> commands = {"run", "bench", "render", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc", "merge", "report", "gate", "gate-doc", "worker"};
+    const std::vector<std::string> commands = {"run", "bench", "render", "calibrate", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc", "merge", "report", "gate", "gate-doc", "worker"};
     if (argc > 1 && argv[1][0] != '-' && std::find(commands.begin(), commands.end(), argv[1]) == commands.end())
-      throw mm::InputError(argv[1], "unknown command (expected run, bench, render, merge, report, gate, ik-bench, plan-bench, config-doc, nodes-doc, results-doc or gate-doc; --help)");
+      throw mm::InputError(argv[1], "unknown command (expected run, bench, render, calibrate, merge, report, gate, ik-bench, plan-bench, config-doc, nodes-doc, results-doc or gate-doc; --help)");
     try {
       app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -184,6 +198,12 @@ int main(int argc, char** argv) {
       const mm::GateResult g = mm::runGate(gate_opts);
       std::cout << g.text;
       return g.exit_code;
+    }
+    if (calibrate->parsed()) {
+      calib.command_line = command_line;
+      std::cout << mm::runCalibration(mm::loadExperiment(calib_experiment, calib_sets, {}, false), calib)
+                << "Results: " << calib.out_dir << "/ (calibration.md, calibration.json, <camera>_extrinsics.yaml)\n";
+      return 0;
     }
     if (render->parsed()) {
       for (const std::string& kv : render_sets)

@@ -16,6 +16,9 @@ void PerceptionOptions::declare(ConfigArchive& a) {
   a.value("camera_height", camera_height, {48, 4096}, "px", "camera mode: image height");
   a.value("depth_noise", noise.k, {0.0, 0.05}, "1/m",
           "camera mode: a stereo camera's depth noise, sigma = k z^2 (0.0015: 1.5 mm at 1 m, 2.4 mm at the bin's 1.27 m); 0: none");
+  a.path("extrinsics", extrinsics,
+         "camera mode: the camera's pose as `minimanip calibrate` wrote it (results/calibration/<camera>_extrinsics.yaml); "
+         "simulator: the simulator's true pose");
   a.value("edge_dropout", noise.edge_dropout, {0.0, 1.0}, "",
           "camera mode: the chance a pixel at a depth edge (its 3x3 neighbourhood spanning more than 1 cm) has no depth, as stereo matching fails there");
 }

@@ -32,6 +32,9 @@ struct PerceptionOptions {
   std::string camera = "overhead_camera";
   int camera_width = 1280, camera_height = 960;  ///< [px]
   DepthNoise noise;  ///< the sensor's (applied where the image is made)
+  std::string extrinsics = "simulator";  ///< a file from `minimanip calibrate`, or "simulator": the true camera pose
+  bool calibrated = false;  ///< T_world_camera holds the file's extrinsics
+  Pose T_world_camera = Pose::Identity();
   std::vector<KnownShape> shapes;  ///< the kinds that can be in the bin (the experiment's catalogue kinds)
 };
 

@@ -105,6 +105,7 @@ CameraModel Renderer::camera(const SimWorld& world, const std::string& name, int
   c.fx = c.fy;
   c.cx = 0.5 * (width - 1);
   c.cy = 0.5 * (height - 1);
+  mj_camlight(m, world.mujocoData());  // a camera on a moved body (a wrist camera) where the body is now
   c.T_world_camera = cameraPose(world.mujocoData(), cam);
   return c;
 }
@@ -119,6 +120,7 @@ Frame Renderer::render(const SimWorld& world, const CameraModel& camera, unsigne
   mjv_defaultCamera(&cam);
   cam.type = mjCAMERA_FIXED;
   cam.fixedcamid = mj_name2id(m, mjOBJ_CAMERA, camera.name.c_str());
+  mj_camlight(m, d);  // cameras and lights where their bodies are now (derived quantities only)
   Frame f;
   f.camera = camera;
   f.camera.T_world_camera = cameraPose(d, cam.fixedcamid);

@@ -479,6 +479,18 @@ void SimWorld::setObjectPose(int i, const Pose& T) {
 
 void SimWorld::parkObject(int i) { setObjectPose(i, impl_->obj_park[i]); }
 
+void SimWorld::setMocapPose(const std::string& name, const Pose& T) {
+  const mjModel* m = impl_->m;
+  const int b = mj_name2id(m, mjOBJ_BODY, name.c_str());
+  if (b < 0 || m->body_mocapid[b] < 0) throw InputError(name, "the model has no mocap body of this name");
+  const int k = m->body_mocapid[b];
+  const Quat q(T.linear());
+  for (int i = 0; i < 3; ++i) impl_->d->mocap_pos[3 * k + i] = T.translation()[i];
+  impl_->d->mocap_quat[4 * k] = q.w(), impl_->d->mocap_quat[4 * k + 1] = q.x();
+  impl_->d->mocap_quat[4 * k + 2] = q.y(), impl_->d->mocap_quat[4 * k + 3] = q.z();
+  mj_kinematics(m, impl_->d);
+}
+
 const mjModel_* SimWorld::mujocoModel() const { return impl_->m; }
 mjData_* SimWorld::mujocoData() const { return impl_->d; }
 const std::vector<unsigned char>& SimWorld::geomLabels() const { return impl_->geom_label; }

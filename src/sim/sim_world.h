@@ -132,6 +132,10 @@ class SimWorld {
   /// Weld object i to the hand in its current relative pose (weld-on-grasp), or release it.
   void setWeld(int i, bool on);
 
+  /// Moves the mocap body `name` (a calibration board, say) to T_world_body; throws InputError if
+  /// the model has no such mocap body.
+  void setMocapPose(const std::string& name, const Pose& T_world_body);
+
   /// A named site's frame and size (box sites: half sizes) [m]; throws InputError if absent.
   std::pair<Pose, Vec3> site(const std::string& name) const;
 

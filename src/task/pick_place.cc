@@ -483,6 +483,7 @@ PerceptionResult perceiveByCamera(TrialContext& ctx, const std::vector<ObjectSta
     p.reason = "camera '" + o.camera + "': " + why;
     return p;
   }
+  if (o.calibrated) frame.camera.T_world_camera = o.T_world_camera;  // where calibration says it is
   CameraPerceptionOptions co;
   co.T_world_crop = o.T_world_crop;
   co.crop_half = o.crop_half;

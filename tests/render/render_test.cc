@@ -98,6 +98,20 @@ TEST(Render, DepthAndPixelsMatchTheSceneGeometry) {
     const double expected = std::pow(2 * s.half * cam.fx / c.z(), 2);
     EXPECT_GT(labelled, 0.9 * expected) << "cube " << i;
     EXPECT_LT(labelled, 1.6 * expected) << "cube " << i << " (its sides show a little in perspective)";
+    // The rendered face (its label, at the plane's depth, as drawn) has its centroid at the face
+    // centre's projection: checks the pixel convention itself (a half-pixel shift shows here).
+    double ru = 0, rv = 0;
+    long rn = 0;
+    for (int r = 0; r < 480; ++r)
+      for (int u = 0; u < 640; ++u) {
+        if (at(f.segmentation, u, r) != kSegmentObject0 + i) continue;
+        const Vec3 ray((u - cam.cx) / cam.fx, (r - cam.cy) / cam.fy, 1.0);
+        if (std::abs(at(f.depth, u, r) - n_cam.dot(p_cam) / n_cam.dot(ray)) > 0.0005) continue;
+        ru += u, rv += r, ++rn;
+      }
+    ASSERT_GT(rn, 200);
+    // Measured: 0.19 px (the axis-aligned cube: its edges fall on the pixel grid) and 0.05 px.
+    EXPECT_LT(std::hypot(ru / rn - c.x(), rv / rn - c.y()), 0.3) << "cube " << i << ": the rendered face's centroid";
     // A pixel at its centre, unprojected with its depth, is the top face's centre.
     const int u = static_cast<int>(std::lround(c.x())), r = static_cast<int>(std::lround(c.y()));
     EXPECT_LT((cam.unproject(u, r, at(f.depth, u, r)) - top).norm(), 0.0015);
