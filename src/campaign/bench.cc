@@ -71,6 +71,7 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
     auto hw2 = makeMujocoHardware(*world, robot, spawn.active);
     const auto t3 = Clock::now();
     TrialContext ctx(*hw2, robot, cell.statics, e.task, cell.perception, e.seed, static_cast<uint64_t>(i));
+    ctx.target_half_height = cell.place_target_half_height;
     runPickAndPlace(ctx, cell.T_world_place_target);
     const auto t4 = Clock::now();
     wall_chain += secs(t3, t4);

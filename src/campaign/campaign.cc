@@ -133,6 +133,8 @@ std::string summaryTable(const CampaignSummary& s) {
   t << "  Place Error:       " << s.place_mm_mean << " mm (mean), " << s.place_mm_max << " mm (max); " << s.orient_deg_mean
     << " deg (mean)\n";
   t << "  In-hand Slip:      " << s.slip_mm_mean << " mm (mean), " << s.slip_mm_max << " mm (max), grasp to release\n";
+  t << "  Grasp Deviation:   " << s.grasp_dev_mm_mean << " mm (mean), " << s.grasp_dev_mm_max << " mm (max); " << s.side_grasps << " of "
+    << s.side_grasps + s.top_down_grasps << " picks from the side\n";
   if (s.detections > 0) {
     t << "  Camera Pose Error: centre " << s.det_centre_mm_mean << " mm (mean), " << s.det_centre_mm_max << " mm (max); rotation "
       << s.det_rotation_deg_mean << " deg (mean), " << s.det_rotation_deg_max << " deg (max); MSSD " << s.det_mssd_mm_mean

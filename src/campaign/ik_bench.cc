@@ -151,7 +151,7 @@ std::vector<Pose> binPoses(const RobotModel& r, const std::string& scene, int n,
   while (static_cast<int>(out.size()) < n) {
     const SpawnResult s = spawnObjects(*world, r, T_bin, half, rng, so);
     for (int i : s.active) {
-      for (const GraspCandidate& g : topDownGrasps(world->object(i), preferred, {}, GraspOptions{})) {
+      for (const GraspCandidate& g : graspCandidates(world->object(i), preferred, Vec3::Zero(), {}, GraspOptions{})) {
         out.push_back(g.T_world_tcp);
         Pose pre = g.T_world_tcp;
         pre.translation().z() += 0.1;

@@ -134,7 +134,7 @@ std::vector<Problem> makeProblems(const RobotModel& robot, SimWorld& world, int 
     std::vector<Obstacle> neighbours = statics;
     VecX q_pre, q_grasp, q_lift, q_preplace, q_retreat;
     bool found = false;
-    for (const GraspCandidate& g : topDownGrasps(target, preferred, neighbours, GraspOptions{})) {
+    for (const GraspCandidate& g : graspCandidates(target, preferred, Vec3::Zero(), neighbours, GraspOptions{})) {
       Pose pre = g.T_world_tcp;
       pre.translation().z() += 0.10;
       if (!solve(pre, robot.home(), q_pre) || !valid->isValid(q_pre)) continue;

@@ -87,6 +87,10 @@ void TrialRecord::describe(RecordArchive& a) {
     p.field("grasp_opening", k.grasp_opening, "m", "per finger when it was grasped");
     p.field("neighbours_moved", k.neighbours_moved, "m", "the farthest another object moved while this one was picked");
     p.field("in_hand_slip", k.in_hand_slip, "m", "how far it moved in the hand from the fingers closing to their opening (0: not let go of by a release)");
+    p.field("grasp_type", k.grasp_type, "", "top_down or side (empty: taken hold of without a planned grasp)");
+    p.field("grasp_deviation", k.grasp_deviation, "m",
+            "the source's grasp-pose deviation: the achieved in-hand position's offset from the planned one when the fingers closed (the simulator's truth)");
+    p.field("grasp_deviation_angle", k.grasp_deviation_angle, "rad", "the same, rotation, up to the object's symmetries");
     p.field("first_pass", k.first_pass, "", "let go of at its target with no failure recorded since the previous object was");
     p.field("reason", k.reason, "", "why it is not placed");
   }, "every object let go of, in order");
@@ -104,6 +108,26 @@ void TrialRecord::describe(RecordArchive& a) {
     l.field("tilt", k.tilt, "rad", "of its axis nearest the vertical");
     l.field("reason", k.reason, "", "why it was not picked: its last grasp's or push's failure, or not tried");
   }, "every object still in the bin at the end");
+  size_t n_sel = o.grasp_selections.size();
+  a.list("grasps", n_sel, [&](size_t i, RecordArchive& g) {
+    if (g.reading() && o.grasp_selections.size() <= i) o.grasp_selections.resize(i + 1);
+    GraspSelection& k = o.grasp_selections[i];
+    g.field("object", k.object, "", "object index (object_<k>)");
+    g.field("shape", k.shape, "", "box or cylinder, as perceived");
+    g.field("candidates", k.candidates, "", "grasp candidates generated");
+    size_t n_tried = k.tried.size();
+    g.list("tried", n_tried, [&](size_t j, RecordArchive& t) {
+      if (t.reading() && k.tried.size() <= j) k.tried.resize(j + 1);
+      GraspTry& c = k.tried[j];
+      t.field("type", c.type, "", "top_down or side");
+      t.field("score", c.score, "", "higher first: wrist turn, clearance, force-closure margin, pad area, torque arm, hand tilt");
+      t.field("closure_margin", c.closure_margin, "rad", "atan(pad friction) minus the larger angle between a contact normal and the line between the contacts (> 0: force closure)");
+      t.field("contact_area", c.contact_area, "m^2", "pad area the object covers");
+      t.field("torque_arm", c.torque_arm, "m", "centre of mass to the grasp axis");
+      t.field("clearance", c.clearance, "m", "open fingertips to the nearest neighbour (capped at 5 cm)");
+      t.field("result", c.result, "", "chosen, or why filterGrasps dropped it (force closure, IK, collision, approach, lift)");
+    }, "the candidates filtered, in order, up to the chosen one");
+  }, "every grasp selection (filterGrasps), in order");
   size_t n_det = o.detections.size();
   a.list("detections", n_det, [&](size_t i, RecordArchive& d) {
     if (d.reading() && o.detections.size() <= i) o.detections.resize(i + 1);
@@ -198,6 +222,13 @@ void CampaignSummary::describe(RecordArchive& a) {
   a.object("in_hand_slip_mm", [&](RecordArchive& c) {
     c.field("mean", slip_mm_mean, "mm", "over successes");
     c.field("max", slip_mm_max, "mm", "");
+  }, "");
+  a.object("grasps", [&](RecordArchive& c) {
+    c.field("top_down", top_down_grasps, "", "picks let go of that were grasped top-down");
+    c.field("side", side_grasps, "", "picks let go of that were grasped from the side");
+    c.field("deviation_mm_mean", grasp_dev_mm_mean, "mm",
+            "the source's grasp-pose deviation (achieved in-hand position against the planned one, at the fingers' closing), over those picks");
+    c.field("deviation_mm_max", grasp_dev_mm_max, "mm", "");
   }, "");
   a.object("camera_pose_error", [&](RecordArchive& c) {
     c.field("detections", detections, "", "objects found by camera perceptions, every trial");
@@ -434,6 +465,8 @@ std::string recordsMarkdown() {
   r.o.faults.resize(1);
   r.o.left.resize(1);
   r.o.detections.resize(1);
+  r.o.grasp_selections.resize(1);
+  r.o.grasp_selections[0].tried.resize(1);
   r.describe(t);
   Documenter s;
   CampaignSummary c;
@@ -496,6 +529,11 @@ void SummaryBuilder::add(const TrialRecord& r) {
     if (f.outcome == "given_up") ++k.given_up;
     if (f.outcome == "superseded") ++k.superseded;
     if (f.outcome == "unrecovered") ++k.unrecovered;
+  }
+  for (const PickRecord& p : o.picks) {
+    if (p.grasp_type.empty()) continue;
+    (p.grasp_type == "side" ? s.side_grasps : s.top_down_grasps)++;
+    grasp_dev_mm_.add(1000.0 * p.grasp_deviation);
   }
   if (!o.success) {
     s.failure_stages[o.failure_stage.empty() ? "unknown" : o.failure_stage]++;
@@ -565,6 +603,8 @@ CampaignSummary SummaryBuilder::get() const {
   }
   s.place_mm_mean = pm.mean, s.place_mm_max = pm.max;
   s.slip_mm_mean = sl.mean, s.slip_mm_max = sl.max;
+  const Moments gd = grasp_dev_mm_.get();
+  s.grasp_dev_mm_mean = gd.mean, s.grasp_dev_mm_max = gd.max;
   {
     const Moments dc = det_centre_mm_.get(), dr = det_rotation_deg_.get(), dm = det_mssd_mm_.get();
     s.det_centre_mm_mean = dc.mean, s.det_centre_mm_max = dc.max;

@@ -36,7 +36,7 @@ class RecordArchive {
   virtual bool reading() const { return false; }
 };
 
-constexpr int kTrialSchema = 7;  // 3: attempts, failure kinds crash and hang; 4: picks' offset; 5: forces, contacts; 6: picks' first_pass; 7: detections
+constexpr int kTrialSchema = 8;  // 3: attempts, failure kinds crash and hang; 4: picks' offset; 5: forces, contacts; 6: picks' first_pass; 7: detections; 8: grasp selections, picks' grasp type and deviation
 
 /// One trial as trials.jsonl holds it.
 struct TrialRecord {
@@ -83,6 +83,8 @@ struct CampaignSummary {
   std::map<std::string, double> breakdown;  ///< mean over successes [s]
   double place_mm_mean = 0, place_mm_max = 0, orient_deg_mean = 0, orient_deg_max = 0;
   double slip_mm_mean = 0, slip_mm_max = 0;
+  double grasp_dev_mm_mean = 0, grasp_dev_mm_max = 0;  ///< the source's grasp-pose deviation, over every planned grasp let go of
+  long side_grasps = 0, top_down_grasps = 0;            ///< picks let go of, by the grasp that took them
   long detections = 0, false_detections = 0, missed_detections = 0;  ///< camera perception
   double det_centre_mm_mean = 0, det_centre_mm_max = 0, det_rotation_deg_mean = 0, det_rotation_deg_max = 0;
   double det_mssd_mm_mean = 0, det_mssd_mm_max = 0;
@@ -119,7 +121,7 @@ class SummaryBuilder {
 
  private:
   CampaignSummary s_;
-  ExactMoments cycle_, sim_, place_mm_, orient_deg_, slip_mm_, det_centre_mm_, det_rotation_deg_, det_mssd_mm_;
+  ExactMoments cycle_, sim_, place_mm_, orient_deg_, slip_mm_, grasp_dev_mm_, det_centre_mm_, det_rotation_deg_, det_mssd_mm_;
   std::map<std::string, ExactMoments> parts_, mttr_;
   std::map<std::string, FaultStats> kinds_;
   Int128 all_time_ = 0, sim_total_ = 0;

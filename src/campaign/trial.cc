@@ -86,6 +86,7 @@ TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial
   Hardware& tapped = renders ? renders->wrap(backend, [&] { stages_ended(false); }) : backend;
   Hardware& hw = faults ? faults->wrap(tapped) : tapped;
   TrialContext ctx(hw, *cell_.robot, cell_.statics, e_.task, cell_.perception, e_.seed, trial);
+  ctx.target_half_height = cell_.place_target_half_height;
   context = &ctx;
   ctx.faults = faults.get();
   env_.ctx = &ctx;
@@ -148,6 +149,7 @@ Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& worl
   c.bin_half = bin_half;
   c.T_world_place_target = T_place;
   c.T_world_place_target.translation().z() += proto.half_size.z();
+  c.place_target_half_height = proto.half_size.z();
   c.perception = e.perception;
   c.perception.hardcoded_pose = makePose(T_bin.translation() + Vec3(0, 0, proto.half_size.z()), Mat3::Identity());
   c.perception.hardcoded_half = proto.half_size;
@@ -161,6 +163,9 @@ Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& worl
   }
   for (const std::string& k : c.spawn.kinds) {
     const ObjectKind* kind = c.spawn.loaded.find(k);
+    if (e.perception.mode == PerceptionMode::kCamera && kind->shape != ObjectShape::kBox)
+      throw InputError(e.file, "objects.kinds: '" + k + "' is a " + shapeName(kind->shape) +
+                                   "; camera perception (perception.mode camera) detects boxes only");
     c.perception.shapes.push_back({kind->name, kind->half_size, kind->mass});
   }
   c.perception.crop_half = bin_half;

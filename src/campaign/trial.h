@@ -23,7 +23,8 @@ struct Cell {
   const RobotModel* robot = nullptr;
   std::vector<Obstacle> statics;
   PerceptionOptions perception;  ///< the experiment's, with the bin's crop box and hardcoded pose
-  Pose T_world_place_target = Pose::Identity();  ///< where the placed object rests
+  Pose T_world_place_target = Pose::Identity();  ///< where the placed object rests (its centre: the first kind's half height up)
+  double place_target_half_height = 0;           ///< [m] the first kind's, which the place target's height assumes
   Pose T_world_bin = Pose::Identity();           ///< the scene's bin_region site (spawning)
   Vec3 bin_half = Vec3::Zero();
   SpawnOptions spawn;  ///< the experiment's, its object catalogue loaded

@@ -1,6 +1,8 @@
 // Plain geometry records shared by the simulator (which exports them) and the planner (which
 // checks against them), so planning never sees MuJoCo.
 #pragma once
+#include <algorithm>
+#include <cmath>
 #include <string>
 
 #include "core/pose.h"
@@ -16,13 +18,25 @@ struct Obstacle {
   std::string name;
 };
 
+/// The shape of a graspable object: a box, or a cylinder along its own z axis.
+enum class ObjectShape { kBox, kCylinder };
+inline const char* shapeName(ObjectShape s) { return s == ObjectShape::kCylinder ? "cylinder" : "box"; }
+
 /// A graspable object in the world (ground truth or perceived).
 struct ObjectState {
   int index = -1;  ///< its index k (object_<k> of the trial's model)
   std::string name;
   Pose T_world_object = Pose::Identity();
-  Vec3 half_size = Vec3::Zero();  ///< box half sizes [m]
+  ObjectShape shape = ObjectShape::kBox;
+  Vec3 half_size = Vec3::Zero();  ///< box: half sizes; cylinder: (radius, radius, half height) — its bounding box [m]
   double mass = 0;                ///< [kg] its kind's nominal mass (a real cell's item master data)
 };
+
+/// The rotation [rad] between two orientations of an object, up to its symmetries: a box's
+/// (boxSymmetricAngle), a cylinder's (any turn about its axis, and end over end).
+inline double objectSymmetricAngle(const Mat3& A, const Mat3& B, ObjectShape shape, const Vec3& half) {
+  if (shape == ObjectShape::kCylinder) return std::acos(std::min(1.0, std::abs(A.col(2).dot(B.col(2)))));
+  return boxSymmetricAngle(A, B, half);
+}
 
 }  // namespace mm

@@ -148,6 +148,10 @@ class MockHardware final : public HardwareBase {
     const Vec3 y = w_.tcpPose().linear().col(1);
     const Mat3 R = o.T_world_object.linear();
     double h = 0;
+    if (o.shape == ObjectShape::kCylinder) {
+      const double c = std::min(1.0, std::abs(y.dot(R.col(2))));
+      return o.half_size.x() * std::sqrt(1 - c * c) + o.half_size.z() * c;
+    }
     for (int a = 0; a < 3; ++a) h += std::abs(y.dot(R.col(a))) * o.half_size[a];
     return h;
   }

@@ -61,12 +61,15 @@ ObjectCatalogue loadObjectCatalogue(const std::string& path) {
                                                 "' (expected shape, size, mass, friction, condim, rgba)");
     }
     const std::string shape = r.text(n, "shape");
-    if (shape != "box") throw InputError(r.at(n["shape"]), "object kind '" + k.name + "': shape '" + shape + "' is not supported (expected box)");
+    if (shape == "cylinder") k.shape = ObjectShape::kCylinder;
+    else if (shape != "box") throw InputError(r.at(n["shape"]), "object kind '" + k.name + "': shape '" + shape + "' is not supported (expected box or cylinder)");
     const auto size = r.vec3(n, "size");
     for (int i = 0; i < 3; ++i) {
       if (!(size[i] > 0 && size[i] <= 1)) throw InputError(r.at(n["size"]), "object kind '" + k.name + "': size expects edge lengths in (0, 1] m");
       k.half_size[i] = size[i] / 2;
     }
+    if (k.shape == ObjectShape::kCylinder && size[0] != size[1])
+      throw InputError(r.at(n["size"]), "object kind '" + k.name + "': a cylinder's size is [diameter, diameter, height]");
     k.mass = r.positive(n, "mass");
     if (n["friction"]) {
       k.friction = r.vec3(n, "friction");

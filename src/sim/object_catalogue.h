@@ -11,10 +11,11 @@
 
 namespace mm {
 
-/// One kind of object: a rigid box on a free joint.
+/// One kind of object: a rigid box or cylinder (along its z) on a free joint.
 struct ObjectKind {
   std::string name;
-  Vec3 half_size = Vec3::Constant(0.025);                 ///< [m]
+  ObjectShape shape = ObjectShape::kBox;
+  Vec3 half_size = Vec3::Constant(0.025);                 ///< [m] box: half sizes; cylinder: (r, r, half height)
   double mass = 0.1;                                      ///< [kg]
   std::array<double, 3> friction{1.0, 0.02, 0.0001};     ///< MuJoCo's sliding, torsional, rolling
   int condim = 4;                                         ///< MuJoCo's contact dimensionality (1, 3, 4 or 6)

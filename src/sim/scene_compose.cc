@@ -245,8 +245,9 @@ std::string composeScene(const std::string& scene_xml, const RobotSpec& robot, c
     body->InsertEndChild(joint);
     XMLElement* geom = scene.NewElement("geom");
     geom->SetAttribute("name", name.c_str());
-    geom->SetAttribute("type", "box");
-    std::snprintf(buf, sizeof buf, "%.12g %.12g %.12g", o.half_size.x(), o.half_size.y(), o.half_size.z());
+    geom->SetAttribute("type", shapeName(o.shape));
+    if (o.shape == ObjectShape::kCylinder) std::snprintf(buf, sizeof buf, "%.12g %.12g", o.half_size.x(), o.half_size.z());
+    else std::snprintf(buf, sizeof buf, "%.12g %.12g %.12g", o.half_size.x(), o.half_size.y(), o.half_size.z());
     geom->SetAttribute("size", buf);
     std::snprintf(buf, sizeof buf, "%.12g", o.mass);
     geom->SetAttribute("mass", buf);

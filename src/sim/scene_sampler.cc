@@ -1,5 +1,8 @@
 #include "sim/scene_sampler.h"
 
+#include <algorithm>
+#include <array>
+#include <cstdio>
 #include <cmath>
 #include <filesystem>
 
@@ -17,6 +20,9 @@ void SpawnOptions::declare(ConfigArchive& a) {
           "0: the model holds only the objects in play. Kept to measure what a parked pool costs (tools/bench)");
   a.value("wall_margin", wall_margin, {0.0, 0.1}, "m", "object centers keep this far from the bin walls");
   a.value("min_spacing", min_spacing, {0.05, 0.3}, "m", "least distance between object centers");
+  a.value("min_gap", min_gap, {0.0, 0.3}, "m",
+          "least gap between upright objects' outlines seen from above (boxes' rectangles, cylinders' circles), and half of it "
+          "between an outline and the bin's edges; 0: min_spacing and wall_margin only");
   a.value("settle_time", settle_time, {0.0, 5.0}, "s", "simulated settling after spawning");
   a.value("drop", drop,
          "drop the objects into the bin from above in random orientations (layers of three, wall_margin from the walls), "
@@ -44,7 +50,63 @@ Mat3 uniformRotation(Rng& rng) {
   return q.normalized().toRotationMatrix();
 }
 
+// An upright object's outline seen from above: a rectangle (box) or a circle (cylinder).
+struct Footprint {
+  Vec2 c;
+  double yaw = 0;
+  ObjectShape shape = ObjectShape::kBox;
+  Vec2 half;  // box: half sizes; cylinder: (r, r)
+  Vec2 axis(int a) const { return a == 0 ? Vec2(std::cos(yaw), std::sin(yaw)) : Vec2(-std::sin(yaw), std::cos(yaw)); }
+  std::array<Vec2, 4> corners() const {
+    std::array<Vec2, 4> v;
+    for (int k = 0; k < 4; ++k) v[k] = c + (k & 1 ? 1 : -1) * half.x() * axis(0) + (k & 2 ? 1 : -1) * half.y() * axis(1);
+    return v;
+  }
+  // Distance from p to the outline's inside (0 inside).
+  double distance(const Vec2& p) const {
+    if (shape == ObjectShape::kCylinder) return std::max(0.0, (p - c).norm() - half.x());
+    const Vec2 d = p - c;
+    const Vec2 local(std::abs(d.dot(axis(0))) - half.x(), std::abs(d.dot(axis(1))) - half.y());
+    return local.cwiseMax(0.0).norm();
+  }
+};
+
+// The gap between two outlines (0 when they touch or overlap). Two convex outlines that do not
+// overlap are nearest at a corner of one of them (rectangles), or along the line of centres
+// (circles).
+double footprintGap(const Footprint& a, const Footprint& b) {
+  if (a.shape == ObjectShape::kCylinder && b.shape == ObjectShape::kCylinder)
+    return std::max(0.0, (a.c - b.c).norm() - a.half.x() - b.half.x());
+  if (a.shape == ObjectShape::kCylinder) return std::max(0.0, b.distance(a.c) - a.half.x());
+  if (b.shape == ObjectShape::kCylinder) return std::max(0.0, a.distance(b.c) - b.half.x());
+  // Separating axes: the rectangles' edge normals.
+  for (const Footprint* f : {&a, &b})
+    for (int k = 0; k < 2; ++k) {
+      const Vec2 n = f->axis(k);
+      double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+      int i = 0;
+      for (const Footprint* g : {&a, &b}) {
+        for (const Vec2& v : g->corners()) lo[i] = std::min(lo[i], v.dot(n)), hi[i] = std::max(hi[i], v.dot(n));
+        ++i;
+      }
+      if (hi[0] < lo[1] || hi[1] < lo[0]) {  // separated: the nearest corner
+        double d = INFINITY;
+        for (const Vec2& v : a.corners()) d = std::min(d, b.distance(v));
+        for (const Vec2& v : b.corners()) d = std::min(d, a.distance(v));
+        return d;
+      }
+    }
+  return 0.0;
+}
+
 }  // namespace
+
+double outlineGap(ObjectShape shape_a, const Vec3& half_a, const Pose& T_a, ObjectShape shape_b, const Vec3& half_b, const Pose& T_b) {
+  auto fp = [](ObjectShape s, const Vec3& h, const Pose& T) {
+    return Footprint{T.translation().head<2>(), yawOf(T.linear()), s, h.head<2>()};
+  };
+  return footprintGap(fp(shape_a, half_a, T_a), fp(shape_b, half_b, T_b));
+}
 
 SpawnResult spawnObjects(SimWorld& w, const RobotModel& robot, const Pose& T_region, const Vec3& half, Rng& rng,
                          const SpawnOptions& options) {
@@ -102,7 +164,24 @@ SpawnResult spawnObjects(SimWorld& w, const RobotModel& robot, const Pose& T_reg
         bool clear = true;
         for (const Vec3& c : centers) clear = clear && (c - p).head<2>().norm() >= o.min_spacing;
         if (!clear) continue;
-        const double hz = w.object(i).half_size.z();
+        const ObjectState me = w.object(i);
+        if (o.min_gap > 0) {  // the outline keeps half the gap from the region's edges too
+          const Mat3 Rl = T_region.linear().transpose() * rotZ(yaw);
+          for (int e = 0; e < 2 && clear; ++e) {
+            const double extent = me.shape == ObjectShape::kCylinder
+                                      ? me.half_size.x()
+                                      : std::abs(Rl(e, 0)) * me.half_size.x() + std::abs(Rl(e, 1)) * me.half_size.y();
+            clear = std::abs(local[e]) + extent <= half[e] - o.min_gap / 2;
+          }
+        }
+        if (o.min_gap > 0)
+          for (size_t j = 0; j < r.active.size() && clear; ++j) {
+            const ObjectState other = w.object(r.active[j]);
+            clear = outlineGap(me.shape, me.half_size, makePose(p, Mat3(rotZ(yaw))), other.shape, other.half_size,
+                               other.T_world_object) >= o.min_gap;
+          }
+        if (!clear) continue;
+        const double hz = me.half_size.z();
         p.z() = surface + hz + (o.physics ? 0.001 : 0.0);
         w.setObjectPose(i, makePose(p, Mat3(rotZ(yaw))));
         centers.push_back(p);
@@ -112,7 +191,8 @@ SpawnResult spawnObjects(SimWorld& w, const RobotModel& robot, const Pose& T_reg
       placed_all = placed;
     }
     if (!placed_all) {
-      r.reason = "could not place " + std::to_string(count) + " objects " + std::to_string(o.min_spacing) + " m apart";
+      r.reason = "could not place " + std::to_string(count) + " objects " + std::to_string(o.min_spacing) + " m apart" +
+                 (o.min_gap > 0 ? " with " + std::to_string(o.min_gap) + " m between them" : "");
       continue;
     }
     if (!o.physics) {
@@ -148,7 +228,11 @@ SpawnResult spawnObjects(SimWorld& w, const RobotModel& robot, const Pose& T_reg
       if (w.objectPenetration(i) > o.max_penetration || s.T_world_object.linear().col(2).z() < 0.95 ||
           std::abs(local.x()) > half.x() || std::abs(local.y()) > half.y() || w.objectVelocity(i).norm() > 0.02) {
         bad = true;
-        r.reason = "object " + s.name + " did not settle upright in the bin";
+        char buf[160];
+        std::snprintf(buf, sizeof buf, " (tilt %.1f deg, penetration %.1f mm, speed %.3f m/s)",
+                      std::acos(std::clamp(s.T_world_object.linear()(2, 2), -1.0, 1.0)) * 180 / M_PI, 1000 * w.objectPenetration(i),
+                      w.objectVelocity(i).norm());
+        r.reason = "object " + s.name + " did not settle upright in the bin" + buf;
       }
     }
     if (!bad) {

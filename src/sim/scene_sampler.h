@@ -15,7 +15,7 @@
 namespace mm {
 
 struct SpawnOptions {
-  /// Keys count_min, count_max, catalogue, kinds, pool, wall_margin, min_spacing, settle_time, drop
+  /// Keys count_min, count_max, catalogue, kinds, pool, wall_margin, min_spacing, min_gap, settle_time, drop
   /// (section "objects").
   void declare(ConfigArchive& a);
   /// Loads `catalogue` (a relative path: against the project root) and checks `kinds` against it;
@@ -29,6 +29,7 @@ struct SpawnOptions {
   bool drop = false;           ///< dropped from above in random orientations (physics only; mock: placed as without)
   double wall_margin = 0.07;   ///< [m] object centers keep this far from the region's edges
   double min_spacing = 0.11;   ///< [m] between object centers
+  double min_gap = 0.0;        ///< [m] between the objects' outlines seen from above (0: min_spacing only)
   double settle_time = 0.3;    ///< [s] simulated settling (physics only)
   int max_attempts = 50;
   bool physics = true;
@@ -41,6 +42,9 @@ struct SpawnResult {
   int attempts = 0;
   std::string reason;
 };
+
+/// The gap [m] between two upright objects' outlines seen from above (0 if they touch or overlap).
+double outlineGap(ObjectShape shape_a, const Vec3& half_a, const Pose& T_a, ObjectShape shape_b, const Vec3& half_b, const Pose& T_b);
 
 /// Draws the trial's objects (count, and kinds when there are several), makes the world's model hold
 /// exactly those (SimWorld::setObjects; `pool` adds parked ones), resets it (arm at home) and places

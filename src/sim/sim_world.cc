@@ -160,7 +160,7 @@ std::string objectsKey(const std::vector<ObjectKind>& objects) {
   std::string key;
   char buf[400];
   for (const ObjectKind& o : objects) {
-    std::snprintf(buf, sizeof buf, "%s|%.17g %.17g %.17g|%.17g|%.17g %.17g %.17g|%d|%.9g %.9g %.9g %.9g;", o.name.c_str(),
+    std::snprintf(buf, sizeof buf, "%s|%s|%.17g %.17g %.17g|%.17g|%.17g %.17g %.17g|%d|%.9g %.9g %.9g %.9g;", o.name.c_str(), shapeName(o.shape),
                   o.half_size.x(), o.half_size.y(), o.half_size.z(), o.mass, o.friction[0], o.friction[1], o.friction[2],
                   o.condim, o.rgba[0], o.rgba[1], o.rgba[2], o.rgba[3]);
     key += buf;
@@ -309,8 +309,8 @@ std::unique_ptr<SimWorld::Impl> SimWorld::compile(const Shared& S, const std::ve
     const int b = mj_name2id(m, mjOBJ_BODY, name.c_str());
     if (b < 0) break;
     if (m->body_jntnum[b] != 1 || m->jnt_type[m->body_jntadr[b]] != mjJNT_FREE || m->body_geomnum[b] != 1 ||
-        m->geom_type[m->body_geomadr[b]] != mjGEOM_BOX)
-      throw InputError(scene_xml, "object body '" + name + "' must have one free joint and one box geom");
+        (m->geom_type[m->body_geomadr[b]] != mjGEOM_BOX && m->geom_type[m->body_geomadr[b]] != mjGEOM_CYLINDER))
+      throw InputError(scene_xml, "object body '" + name + "' must have one free joint and one box or cylinder geom");
     I.obj_body.push_back(b);
     I.obj_qpos.push_back(m->jnt_qposadr[m->body_jntadr[b]]);
     I.obj_dof.push_back(m->jnt_dofadr[m->body_jntadr[b]]);
@@ -324,7 +324,8 @@ std::unique_ptr<SimWorld::Impl> SimWorld::compile(const Shared& S, const std::ve
   const int park = mj_name2id(m, mjOBJ_SITE, "object_park");
   const Pose T_park = park >= 0 ? poseOf(I.d->site_xpos + 3 * park, I.d->site_xmat + 9 * park) : makePose(Vec3(0, 0, -100), Mat3::Identity());
   for (size_t k = 0; k < I.obj_body.size(); ++k) {
-    const double hz = m->geom_size[3 * I.obj_geom[k] + 2];
+    const int g = I.obj_geom[k];
+    const double hz = m->geom_size[3 * g + (m->geom_type[g] == mjGEOM_CYLINDER ? 1 : 2)];
     I.obj_park.push_back(T_park * makePose(Vec3(0.1 * static_cast<double>(k % 5), 0.1 * static_cast<double>(k / 5), hz + 0.001), Mat3::Identity()));
   }
   for (int k = 0;; ++k) {
@@ -459,7 +460,12 @@ ObjectState SimWorld::object(int i) const {
   const mjtNum* q = I.d->qpos + I.obj_qpos[i];
   o.T_world_object = makePose(Vec3(q[0], q[1], q[2]), Quat(q[3], q[4], q[5], q[6]));
   const mjtNum* s = I.m->geom_size + 3 * I.obj_geom[i];
-  o.half_size = Vec3(s[0], s[1], s[2]);
+  if (I.m->geom_type[I.obj_geom[i]] == mjGEOM_CYLINDER) {
+    o.shape = ObjectShape::kCylinder;
+    o.half_size = Vec3(s[0], s[0], s[1]);
+  } else {
+    o.half_size = Vec3(s[0], s[1], s[2]);
+  }
   o.mass = I.m->body_mass[I.obj_body[i]];
   return o;
 }

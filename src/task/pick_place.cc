@@ -31,8 +31,8 @@ double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::
 
 Obstacle boxOf(const ObjectState& o) {
   Obstacle b;
-  b.type = Obstacle::Type::kBox;
-  b.size = o.half_size;
+  b.type = o.shape == ObjectShape::kCylinder ? Obstacle::Type::kCylinder : Obstacle::Type::kBox;
+  b.size = o.shape == ObjectShape::kCylinder ? Vec3(o.half_size.x(), o.half_size.z(), 0) : o.half_size;
   b.T_world = o.T_world_object;
   b.name = o.name;
   return b;
@@ -345,7 +345,7 @@ class PlanExecution final : public Motion {
       }
       if (object < 0) return;
     }
-    hold(hw, object, plan_.object_half, plan_.T_tcp_object, plan_.grasp_candidates_tried);
+    hold(hw, object, plan_.object_half, plan_.T_tcp_object, plan_.grasp_candidates_tried, plan_.object_shape, plan_.grasp_type);
   }
 
   // The fingers closed on something: the perceived object nearest the TCP (within 2 cm), if any.
@@ -357,10 +357,11 @@ class PlanExecution final : public Motion {
       const double d = (o.T_world_object.translation() - T_tcp.translation()).norm();
       if (d <= best_d && !picked(ctx_, o.index)) best_d = d, best = &o;
     }
-    if (best) hold(hw, best->index, best->half_size, T_tcp.inverse() * best->T_world_object, 0);
+    if (best) hold(hw, best->index, best->half_size, T_tcp.inverse() * best->T_world_object, 0, best->shape, "");
   }
 
-  void hold(Hardware& hw, int object, const Vec3& half, const Pose& T_tcp_object, int candidates_tried) {
+  void hold(Hardware& hw, int object, const Vec3& half, const Pose& T_tcp_object, int candidates_tried, ObjectShape shape,
+            const std::string& grasp_type) {
     ctx_.held = object;
     if (std::find(ctx_.picked.begin(), ctx_.picked.end(), object) == ctx_.picked.end()) ctx_.picked.push_back(object);
     // Let go of away from a target before, picked again now: that record is superseded.
@@ -374,6 +375,15 @@ class PlanExecution final : public Motion {
     r.half_size = half;
     r.grasp_candidates_tried = candidates_tried;
     r.grasp_opening = ctx_.out.grasp_opening;
+    r.grasp_type = grasp_type;
+    // The source's grasp-pose deviation: the achieved in-hand pose against the planned one (a
+    // metric from the simulator's truth, never used by the pipeline).
+    r.grasp_deviation = (ctx_.T_tcp_held_actual.translation() - T_tcp_object.translation()).norm();
+    r.grasp_deviation_angle = objectSymmetricAngle(ctx_.T_tcp_held_actual.linear(), T_tcp_object.linear(), shape, half);
+    ctx_.held_shape = shape;
+    // Held from the side: the hand near horizontal when the fingers closed (a tilted box's grasp
+    // leans at most 50 degrees).
+    ctx_.held_from_side = -hw.tcpPose().linear()(2, 2) < std::cos(70.0 * M_PI / 180);
     ctx_.held_record = r;
     if (ctx_.options.weld) hw.attach(object, true);
     if (ctx_.options.payload_compensation)
@@ -592,9 +602,41 @@ std::vector<GraspCandidate> graspCandidates(TrialContext& ctx, const ObjectState
   for (const ObjectState& b : ctx.objects)
     if (b.index != object.index && !picked(ctx, b.index)) neighbours.push_back(boxOf(b));
   const double preferred_yaw = yawOf(ctx.robot.fk(ctx.robot.home()).linear());
-  GraspOptions go = ctx.options.grasp;
-  go.max_opening = 2 * ctx.robot.spec().gripper.travel;
-  return topDownGrasps(object, preferred_yaw, neighbours, go);
+  const GraspOptions go = graspOptionsFor(ctx.robot.spec().gripper, ctx.options);
+  return mm::graspCandidates(object, preferred_yaw, Vec3::Zero(), neighbours, go);
+}
+
+GraspOptions graspOptionsFor(const GripperSpec& gripper, const TaskOptions& task) {
+  GraspOptions go = task.grasp;
+  go.max_opening = 2 * gripper.travel;
+  go.friction = gripper.pad_friction;
+  go.approach_distance = task.approach_distance;
+  // The pads: the +y finger's first box, in the TCP frame (z along the approach).
+  for (const ShapeSpec& sh : gripper.fingers[0].shapes)
+    if (sh.type == ShapeSpec::Type::kBox) {
+      go.pad_half_width = sh.half[0];
+      go.pad_z_min = gripper.finger_z + sh.pos[2] - sh.half[2] - gripper.tcp_offset;
+      go.pad_z_max = gripper.finger_z + sh.pos[2] + sh.half[2] - gripper.tcp_offset;
+      break;
+    }
+  // The hand body: its front (nearest the TCP) and its half extents across.
+  double front = -INFINITY, thick = 0, wide = 0;
+  for (const ShapeSpec& sh : gripper.hand.shapes) {
+    if (sh.type == ShapeSpec::Type::kBox) {
+      front = std::max(front, sh.pos[2] + sh.half[2]);
+      thick = std::max(thick, std::abs(sh.pos[0]) + sh.half[0]);
+      wide = std::max(wide, std::abs(sh.pos[1]) + sh.half[1]);
+    } else {
+      const double r = sh.type == ShapeSpec::Type::kSphere ? sh.radius : sh.radius;
+      const double z = sh.type == ShapeSpec::Type::kSphere ? sh.pos[2] + r : std::max(sh.from[2], sh.to[2]) + (sh.type == ShapeSpec::Type::kCapsule ? r : 0.0);
+      front = std::max(front, z);
+      thick = std::max(thick, r);
+      wide = std::max(wide, r);
+    }
+  }
+  if (std::isfinite(front)) go.hand_back = gripper.tcp_offset - front;
+  if (thick > 0) go.hand_half_thickness = thick, go.hand_half_width = wide;
+  return go;
 }
 
 namespace {
@@ -667,6 +709,7 @@ bool graspable(TrialContext& ctx, const ObjectState& object) {
     GraspCheckers checkers = graspCheckers(ctx, object, margin);
     int tried = 0;
     for (const GraspCandidate& g : candidates) {
+      if (!g.rejected.empty()) break;  // the rest are out of force closure too
       if (tried++ >= ctx.options.max_grasp_candidates) break;
       GraspSolution s;
       if (tryGrasp(ctx, object, g, checkers, ctx.options.approach_distance, rng, s, checks).ok()) return true;
@@ -689,15 +732,30 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
     st->ok = f.ok();
     return f;
   };
+  // filterGrasps: the score (force closure), then IK, collision, the approach and the lift; each
+  // candidate looked at is recorded with what became of it.
+  GraspSelection& sel = ctx.out.grasp_selections.emplace_back();
+  sel.object = object.index;
+  sel.shape = shapeName(object.shape);
+  sel.candidates = static_cast<int>(candidates.size());
+  auto note = [&](const GraspCandidate& g, const std::string& result) {
+    sel.tried.push_back({graspTypeName(g.type), g.score, g.closure_margin, g.contact_area, g.torque_arm, g.clearance, result});
+  };
   if (candidates.empty())
-    return done({"grasp_pose_ik", FailureKind::kNoGrasp, "no top-down grasp for this object (tilted or too wide)"});
+    return done({"grasp_pose_ik", FailureKind::kNoGrasp, "no grasp for this object (tilted, or too wide for the stroke)"});
   Failure last{"grasp_pose_ik", FailureKind::kNoGrasp, "every grasp candidate failed before in this trial"};
+  if (!candidates[first < candidates.size() ? first : 0].rejected.empty())
+    last = {"grasp_pose_ik", FailureKind::kNoGrasp, "no candidate in force closure: " + candidates[first < candidates.size() ? first : 0].rejected};
   bool found = false;
   for (double margin : graspMargins(o)) {
     GraspCheckers checkers = graspCheckers(ctx, object, margin);
     int tried = 0;
     for (size_t c = first; c < candidates.size() && tried < o.max_grasp_candidates; ++c) {
       const GraspCandidate& g = candidates[c];
+      if (!g.rejected.empty()) {  // sorted last: none after it is in force closure
+        note(g, g.rejected);
+        break;
+      }
       const bool failed_before = std::any_of(ctx.failed_grasps.begin(), ctx.failed_grasps.end(), [&](const Pose& T) {
         return (T.translation() - g.T_world_tcp.translation()).norm() < 1e-3 &&
                angleBetween(T.linear(), g.T_world_tcp.linear()) < 1e-2;
@@ -706,6 +764,7 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
       ++tried;
       ++ctx.out.grasp_candidates_tried;
       last = tryGrasp(ctx, object, g, checkers, approach_distance, ctx.rng_ik, out, ctx.out.collision_checks);
+      note(g, last.ok() ? "chosen" : last.stage + ": " + last.reason);
       if (!last.ok()) continue;
       found = true;
       out.object = object;
@@ -776,6 +835,8 @@ Failure planPick(TrialContext& ctx, const GraspSolution& g, Plan& out) {
   out.q_end = q_lifted;
   out.object = g.object.index;
   out.object_half = g.object.half_size;
+  out.object_shape = g.object.shape;
+  out.grasp_type = graspTypeName(g.candidate.type);
   out.T_tcp_object = g.T_tcp_object;
   out.T_world_grasp = g.candidate.T_world_tcp;
   out.grasp_candidates_tried = g.candidates_tried;
@@ -807,12 +868,26 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   // TCP poses that put the object at the target, one per symmetry of the box (a cube held on its
   // side is placed on that side) that keeps the hand within 45 deg of pointing down; least wrist
   // turn and tilt first.
-  Pose T_obj_place = T_world_object;
+  // The target rests the object on the place surface: its centre the held object's own half
+  // height above it.
+  Pose T_target = T_world_object;
+  if (ctx.target_half_height >= 0) T_target.translation().z() += half.z() - ctx.target_half_height;
+  Pose T_obj_place = T_target;
   T_obj_place.translation().z() += o.place_clearance;
-  const double yaw_now = yawOf(ctx.robot.fk(q_lift).linear());
+  const Pose T_tcp_now = ctx.robot.fk(q_lift);
+  const double yaw_now = yawOf(T_tcp_now.linear());
   std::vector<std::pair<double, Pose>> options;
-  for (Mat3 S : boxSymmetries(half)) {
-    if (S(2, 2) > 0.5) {  // a turn about the vertical: the exact rotZ of k quarter turns
+  // Held from the side, the hand stays near horizontal: a cylinder turned about its axis by
+  // 30 degree steps (both ways up), the least wrist turn first.
+  std::vector<Mat3> symmetries;
+  if (ctx.held_shape == ObjectShape::kCylinder) {
+    for (double flip : {0.0, M_PI})
+      for (int k = 0; k < 12; ++k) symmetries.push_back(Mat3(rotX(flip) * rotZ(k * M_PI / 6)));
+  } else {
+    symmetries = boxSymmetries(half);
+  }
+  for (Mat3 S : symmetries) {
+    if (ctx.held_shape == ObjectShape::kBox && S(2, 2) > 0.5) {  // a turn about the vertical: the exact rotZ of k quarter turns
       const long k = (std::lround(std::atan2(S(1, 0), S(0, 0)) / (M_PI / 2)) + 4) % 4;
       S = rotZ(2 * M_PI * static_cast<double>(k) / 4);
     }
@@ -820,6 +895,11 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
     T_obj.linear() = T_obj_place.linear() * S;
     const Pose T_tcp = T_obj * ctx.T_tcp_held.inverse();
     const double tilt = std::acos(std::clamp(-T_tcp.linear()(2, 2), -1.0, 1.0));
+    if (ctx.held_from_side) {
+      if (std::abs(tilt - M_PI / 2) > M_PI / 4) continue;
+      options.push_back({angleBetween(T_tcp.linear(), T_tcp_now.linear()), T_tcp});
+      continue;
+    }
     if (tilt > M_PI / 4) continue;
     options.push_back({std::abs(wrapAngle(yawOf(T_tcp.linear()) - yaw_now)) + 2 * tilt, T_tcp});
   }
@@ -908,7 +988,7 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   out.steps.back().guarded = true;  // the held object meeting the surface early is touch-down, not a fault
   out.q_end = q_down;
   out.object = ctx.held;
-  out.T_world_target = T_world_object;
+  out.T_world_target = T_target;
   out.places = true;
   if (release) {
     PlanStep open = gripperStep("open_gripper_release", q_down, release_opening);
@@ -1337,7 +1417,7 @@ void finishTrial(TrialContext& ctx, bool tree_succeeded) {
     const Vec3 pos = o.T_world_object.translation(), goal = p.T_world_target.translation();
     p.offset = pos - goal;
     p.position_error = (pos - goal).head<2>().norm();
-    p.orientation_error = boxSymmetricAngle(o.T_world_object.linear(), p.T_world_target.linear(), o.half_size);
+    p.orientation_error = objectSymmetricAngle(o.T_world_object.linear(), p.T_world_target.linear(), o.shape, o.half_size);
     const double rest_error = std::abs(pos.z() - goal.z());
     const double speed = hw.objectVelocity(p.object).norm();
     if (p.position_error > ctx.options.tolerance_position)

@@ -29,8 +29,12 @@ int objectsInBin(const TrialContext& ctx);
 
 // ---- pick ---------------------------------------------------------------------------------
 
-/// Top-down grasp candidates for `object`, best first (neighbours: the other perceived objects).
+/// Grasp candidates for `object`, best first (neighbours: the other perceived objects and the
+/// cell's statics), scored for the robot's gripper.
 std::vector<GraspCandidate> graspCandidates(TrialContext& ctx, const ObjectState& object);
+/// The grasp options of `task` with the gripper's stroke, pad friction and geometry (the pads'
+/// extent and the hand body's, in the TCP frame) filled in.
+GraspOptions graspOptionsFor(const GripperSpec& gripper, const TaskOptions& task);
 /// Whether one of the object's candidates passes selectGrasp's checks (IK, collision, approach,
 /// lift) now; records nothing and draws from a copy of the IK stream.
 bool graspable(TrialContext& ctx, const ObjectState& object);

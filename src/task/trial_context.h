@@ -58,6 +58,8 @@ struct Plan {
   VecX q_end;                              ///< where the arm ends (as planned)
   int object = -1;                         ///< pick: the object grasped; place: the object carried
   Vec3 object_half = Vec3::Zero();         ///< pick: its half sizes [m]
+  ObjectShape object_shape = ObjectShape::kBox;  ///< pick: its shape
+  std::string grasp_type;                  ///< pick: "top_down" or "side"
   Pose T_tcp_object = Pose::Identity();    ///< pick: the object in the hand, as planned
   Pose T_world_grasp = Pose::Identity();   ///< pick: the TCP at the grasp
   int grasp_candidates_tried = 0;
@@ -133,6 +135,11 @@ class TrialContext {
   int held = -1;                     ///< index of the object in the hand (object_<k>), -1 for none
   Pose T_tcp_held = Pose::Identity();        ///< the held object in the hand as planned
   Pose T_tcp_held_actual = Pose::Identity(); ///< as measured when the fingers closed (drop check)
+  ObjectShape held_shape = ObjectShape::kBox;   ///< the held object's shape
+  /// [m] the half height the place targets' centre height assumes (negative: none); an object of
+  /// another height is placed that much higher or lower, so that it rests on the same surface.
+  double target_half_height = -1;
+  bool held_from_side = false;                  ///< grasped from the side (the hand horizontal)
   PickRecord held_record;            ///< filled while holding, moved to out.picks on release
   VecX q_rest;                       ///< where the arm rests: the last plan's end, or where it stopped
   double gripper_opening = 0;        ///< [m] the gripper's last goal

@@ -38,8 +38,30 @@ struct PickRecord {
   double grasp_opening = 0;        ///< [m] per finger after closing
   double neighbours_moved = 0;     ///< [m] the farthest another object moved while this one was picked
   double in_hand_slip = 0;         ///< [m] how far it moved in the hand from the fingers closing to the release (ground truth)
+  std::string grasp_type;          ///< "top_down" or "side" (empty: taken hold of without a planned grasp)
+  double grasp_deviation = 0;      ///< [m] the achieved in-hand pose's offset from the planned one, at the fingers' closing (ground truth)
+  double grasp_deviation_angle = 0;  ///< [rad] the same, rotation (up to the object's symmetries)
   bool first_pass = false;         ///< let go of at its target with no failure since the previous one was
   std::string reason;              ///< why it is not placed
+};
+
+/// One grasp candidate filterGrasps looked at: its scores and what became of it.
+struct GraspTry {
+  std::string type;            ///< "top_down" or "side"
+  double score = 0;
+  double closure_margin = 0;   ///< [rad] force-closure margin (atan(mu) minus the larger contact angle)
+  double contact_area = 0;     ///< [m^2] pad area the object covers
+  double torque_arm = 0;       ///< [m] centre of mass to the grasp axis
+  double clearance = 0;        ///< [m] open fingertips to the nearest neighbour
+  std::string result;          ///< "chosen", or why it was dropped
+};
+
+/// One selection of a grasp for an object (a SelectGrasp / the chain's grasp stage).
+struct GraspSelection {
+  int object = -1;
+  std::string shape;          ///< "box" or "cylinder"
+  int candidates = 0;         ///< generated
+  std::vector<GraspTry> tried;  ///< in order, up to the chosen one or the limit
 };
 
 /// An object still in the bin when the trial ended, and why it was not picked.
@@ -102,6 +124,7 @@ struct TrialOutcome {
   long collision_checks = 0;
   double grasp_opening = 0;  ///< [m] per finger after the last close
   std::vector<PickRecord> picks;  ///< every object let go of, in order
+  std::vector<GraspSelection> grasp_selections;  ///< every grasp selection, in order
   std::vector<DetectionRecord> detections;  ///< camera mode: every detection of every perception
   int missed_detections = 0;      ///< camera mode: objects in the bin a perception did not find
   std::vector<LeftRecord> left;   ///< every object left in the bin at the end

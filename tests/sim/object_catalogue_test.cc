@@ -76,15 +76,37 @@ TEST(ObjectCatalogue, ObjectsTakeTheirKindsSizeMassAndThePalettesColours) {
   EXPECT_TRUE(w->object(1).half_size.isApprox(Vec3(0.03, 0.02, 0.01)));
 }
 
+// A cylinder kind becomes a MuJoCo cylinder geom, read back as a cylinder with its bounding half sizes.
+TEST(ObjectCatalogue, ACylinderKindIsSimulatedAsACylinder) {
+  TempDir d;
+  const std::string file = d.file("can.yaml", "kinds:\n  can:\n    shape: cylinder\n    size: [0.05, 0.05, 0.12]\n    mass: 0.2\n");
+  const ObjectCatalogue c = loadObjectCatalogue(file);
+  ASSERT_EQ(c.kinds.size(), 1u);
+  EXPECT_EQ(c.kinds[0].shape, ObjectShape::kCylinder);
+  auto w = SimWorld::load("scenes/bin_table.xml", panda(), {c.asObject(c.kinds[0], 0)});
+  const ObjectState o = w->object(0);
+  EXPECT_EQ(o.shape, ObjectShape::kCylinder);
+  EXPECT_TRUE(o.half_size.isApprox(Vec3(0.025, 0.025, 0.06)));
+  EXPECT_NEAR(o.mass, 0.2, 1e-12);
+}
+
 TEST(ObjectCatalogue, BadCataloguesKindsAndScenesAreExitTwoNamingTheFile) {
   TempDir d;
-  const std::string cyl = d.file("cyl.yaml", "kinds:\n  can:\n    shape: cylinder\n    size: [0.05, 0.05, 0.1]\n    mass: 0.2\n");
+  const std::string ball = d.file("ball.yaml", "kinds:\n  ball:\n    shape: sphere\n    size: [0.05, 0.05, 0.05]\n    mass: 0.2\n");
   try {
-    loadObjectCatalogue(cyl);
+    loadObjectCatalogue(ball);
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_THAT(e.what(), HasSubstr(cyl + ":3:"));
-    EXPECT_THAT(e.what(), HasSubstr("cylinder"));
+    EXPECT_THAT(e.what(), HasSubstr(ball + ":3:"));
+    EXPECT_THAT(e.what(), HasSubstr("expected box or cylinder"));
+  }
+  const std::string oval = d.file("oval.yaml", "kinds:\n  can:\n    shape: cylinder\n    size: [0.05, 0.04, 0.1]\n    mass: 0.2\n");
+  try {
+    loadObjectCatalogue(oval);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr(oval + ":4:"));
+    EXPECT_THAT(e.what(), HasSubstr("[diameter, diameter, height]"));
   }
   const std::string neg = d.file("neg.yaml", "kinds:\n  c:\n    shape: box\n    size: [0.05, -0.05, 0.05]\n    mass: 0.2\n");
   EXPECT_THROW(loadObjectCatalogue(neg), InputError);
@@ -96,9 +118,13 @@ TEST(ObjectCatalogue, BadCataloguesKindsAndScenesAreExitTwoNamingTheFile) {
   testing_cli::RunResult r = runMinimanip("run " + exp + " --set objects.kinds=cube_5cm,sphere");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_THAT(r.out, HasSubstr("'sphere' is not in the catalogue"));
-  r = runMinimanip("run " + exp + " --set objects.catalogue=" + cyl);
+  r = runMinimanip("run " + exp + " --set objects.catalogue=" + ball);
   EXPECT_EQ(r.code, 2) << r.out;
-  EXPECT_THAT(r.out, HasSubstr(cyl + ":3:"));
+  EXPECT_THAT(r.out, HasSubstr(ball + ":3:"));
+  // Camera perception finds boxes only.
+  r = runMinimanip("run " + exp + " --set perception.mode=camera --set objects.kinds=cube_5cm,bottle");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("'bottle' is a cylinder"));
 
   // A scene that still holds an object pool.
   std::stringstream s;
