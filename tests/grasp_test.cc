@@ -181,8 +181,9 @@ TEST(GraspCandidates, SideGraspsRiseOverWhatTheHandSweepsAndStopAtTheTop) {
   const auto c = graspCandidates(bottle, 0.0, Vec3::Zero(), {wall}, o);
   for (const GraspCandidate& g : c) {
     if (g.type != GraspType::kSide) continue;
-    if (g.approach.x() < -0.5)  // towards the wall
+    if (g.approach.x() < -0.5) {  // towards the wall
       EXPECT_NEAR(g.T_world_tcp.translation().z(), 0.06 + o.hand_half_thickness + 0.005, 1e-12);
+    }
   }
   const ObjectState short_can = upright(ObjectShape::kCylinder, Vec3(0.03, 0.03, 0.03));
   for (const GraspCandidate& g : graspCandidates(short_can, 0.0, Vec3::Zero(), {}, o)) EXPECT_EQ(g.type, GraspType::kTopDown);

@@ -1,6 +1,8 @@
 #include <fcl/fcl.h>
 
 #include <cmath>
+#include <map>
+#include <mutex>
 
 #include "core/error.h"
 #include "planning/collision.h"
@@ -25,6 +27,32 @@ struct Body {
   std::string name;
 };
 
+// A hull grown as the boxes are (sizes grown, not rounded): the hull of every vertex moved to the
+// corners of a cube of half side `pad` around it, the Minkowski sum with that cube. Kept per hull
+// and padding.
+std::shared_ptr<const ConvexHull> paddedHull(const std::shared_ptr<const ConvexHull>& hull, double pad) {
+  if (pad <= 0) return hull;
+  static std::mutex mutex;
+  static std::map<std::pair<const ConvexHull*, double>, std::shared_ptr<const ConvexHull>> cache;
+  std::lock_guard<std::mutex> lock(mutex);
+  auto& slot = cache[{hull.get(), pad}];
+  if (!slot) {
+    std::vector<Vec3> points;
+    for (const Vec3& v : hull->vertices)
+      for (int k = 0; k < 8; ++k) points.push_back(v + pad * Vec3((k & 1) ? 1 : -1, (k & 2) ? 1 : -1, (k & 4) ? 1 : -1));
+    slot = std::make_shared<const ConvexHull>(convexHull(points, "a padded collision mesh"));
+  }
+  return slot;
+}
+
+std::shared_ptr<fcl::CollisionGeometryd> convexGeometry(const ConvexHull& h) {
+  auto vertices = std::make_shared<std::vector<fcl::Vector3d>>();
+  for (const Vec3& v : h.vertices) vertices->push_back(v);
+  auto faces = std::make_shared<std::vector<int>>();
+  for (const auto& f : h.faces) faces->insert(faces->end(), {3, f[0], f[1], f[2]});
+  return std::make_shared<fcl::Convexd>(vertices, static_cast<int>(h.faces.size()), faces);
+}
+
 Body robotShape(const CollisionShape& s, double pad) {
   Body b;
   b.link = s.link;
@@ -42,6 +70,13 @@ Body robotShape(const CollisionShape& s, double pad) {
       const Vec3 full = s.size + Vec3::Constant(2 * pad);
       b.geom = std::make_shared<fcl::Boxd>(full);
       b.bound = full.norm() / 2;
+      break;
+    }
+    case CollisionShape::Type::kConvex: {
+      const auto hull = paddedHull(s.hull, pad);
+      b.geom = convexGeometry(*hull);
+      b.bound = 0;
+      for (const Vec3& v : hull->vertices) b.bound = std::max(b.bound, v.norm());
       break;
     }
   }

@@ -30,19 +30,30 @@ struct LocalSphere {
   int shape = 0;  // index of the primitive it covers
 };
 
-// FCL's padding of a robot primitive (collision_fcl.cc): sizes grown, not rounded.
+// FCL's padding of a robot primitive (collision_fcl.cc): sizes grown, not rounded. A convex hull
+// is covered as its bounding box in its own frame (it contains the hull, so the cover stays
+// conservative against FCL's hull).
 CollisionShape padded(CollisionShape s, double pad) {
+  if (s.type == CollisionShape::Type::kConvex) {
+    s.type = CollisionShape::Type::kBox;
+    s.size = s.hull->upper - s.hull->lower;
+    s.T_link_shape = s.T_link_shape * makePose(0.5 * (s.hull->upper + s.hull->lower), Mat3::Identity());
+    s.hull.reset();
+  }
   switch (s.type) {
     case CollisionShape::Type::kSphere: s.size.x() += pad; break;
     case CollisionShape::Type::kCylinder: s.size.x() += pad, s.size.y() += 2 * pad; break;
     case CollisionShape::Type::kBox: s.size += Vec3::Constant(2 * pad); break;
+    case CollisionShape::Type::kConvex: break;
   }
   return s;
 }
 
 void coverShape(const CollisionShape& s, std::vector<LocalSphere>& out) {
+  if (s.type == CollisionShape::Type::kConvex) return coverShape(padded(s, 0.0), out);
   const Pose& T = s.T_link_shape;
   switch (s.type) {
+    case CollisionShape::Type::kConvex: break;
     case CollisionShape::Type::kSphere:
       out.push_back({s.link, T.translation(), s.size.x()});
       break;

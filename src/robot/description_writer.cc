@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <sstream>
 
+#include "robot/mesh.h"
+
 namespace mm {
 namespace {
 
@@ -48,6 +50,16 @@ MassProps massProps(const LinkSpec& link) {
       p.I_unit.diagonal() << (h.y() * h.y() + h.z() * h.z()) / 3, (h.x() * h.x() + h.z() * h.z()) / 3,
           (h.x() * h.x() + h.y() * h.y()) / 3;
       const Matrix3d R = Eigen::Quaterniond(s.quat[0], s.quat[1], s.quat[2], s.quat[3]).normalized().toRotationMatrix();
+      p.I_unit = R * p.I_unit * R.transpose();
+    } else if (s.type == ShapeSpec::Type::kMesh) {  // as its hull's bounding box in the mesh's frame
+      const auto hull = meshHull(s.mesh, toV(s.scale));
+      const Vector3d h = 0.5 * (hull->upper - hull->lower);
+      const Matrix3d R = Eigen::Quaterniond(s.quat[0], s.quat[1], s.quat[2], s.quat[3]).normalized().toRotationMatrix();
+      p.vol = 8 * h.prod();
+      p.c = toV(s.pos) + R * (0.5 * (hull->upper + hull->lower));
+      p.I_unit = Matrix3d::Zero();
+      p.I_unit.diagonal() << (h.y() * h.y() + h.z() * h.z()) / 3, (h.x() * h.x() + h.z() * h.z()) / 3,
+          (h.x() * h.x() + h.y() * h.y()) / 3;
       p.I_unit = R * p.I_unit * R.transpose();
     } else if (s.type == ShapeSpec::Type::kSphere) {
       p.vol = 4.0 / 3.0 * M_PI * std::pow(s.radius, 3);
@@ -112,8 +124,31 @@ std::string mjcfGeoms(const LinkSpec& link, const std::string& indent, const std
       case ShapeSpec::Type::kSphere:
         o << "type=\"sphere\" pos=\"" << vec(toV(s.pos)) << "\" size=\"" << num(s.radius) << "\"";
         break;
+      case ShapeSpec::Type::kMesh:
+        o << "type=\"mesh\" mesh=\"" << link.name << "_c" << (k - 1) << "_hull\" pos=\"" << vec(toV(s.pos)) << "\"";
+        if (!identityQuat(s.quat))
+          o << " quat=\"" << num(s.quat[0]) << " " << num(s.quat[1]) << " " << num(s.quat[2]) << " " << num(s.quat[3]) << "\"";
+        break;
     }
     o << "/>\n";
+  }
+  return o.str();
+}
+
+// A mesh shape's convex hull as an inline mesh asset (its vertices; MuJoCo takes their hull), named
+// after the geom that uses it: MuJoCo collides the hull we computed, not its own reading of the file.
+std::string mjcfMeshAssets(const std::vector<const LinkSpec*>& links) {
+  std::ostringstream o;
+  for (const LinkSpec* link : links) {
+    int k = 0;
+    for (const auto& s : link->shapes) {
+      ++k;
+      if (s.type != ShapeSpec::Type::kMesh) continue;
+      const auto hull = meshHull(s.mesh, toV(s.scale));
+      o << "    <mesh name=\"" << link->name << "_c" << (k - 1) << "_hull\" vertex=\"";
+      for (size_t i = 0; i < hull->vertices.size(); ++i) o << (i ? " " : "") << vec(hull->vertices[i]);
+      o << "\"/>  <!-- the convex hull of " << s.mesh << " -->\n";
+    }
   }
   return o.str();
 }
@@ -142,6 +177,12 @@ std::string writeMjcf(const RobotSpec& spec) {
   // Angles (joint ranges) are in radians; a scene mounting this robot declares its own compiler
   // (sim/scene_compose.cc converts the ranges when that scene works in degrees).
   o << "  <compiler angle=\"radian\"/>\n\n";
+  {
+    std::vector<const LinkSpec*> all;
+    for (const auto& l : spec.links) all.push_back(&l);  // the arm's, then the hand and its fingers
+    const std::string assets = mjcfMeshAssets(all);
+    if (!assets.empty()) o << "  <asset>\n" << assets << "  </asset>\n\n";
+  }
   o << "  <default>\n    <default class=\"" << spec.name << "\">\n";
   o << "      <joint damping=\"" << num(spec.damping) << "\" armature=\"" << num(spec.armature) << "\"/>\n";
   o << "      <default class=\"" << spec.name << "_col\">\n";
@@ -260,6 +301,11 @@ std::string urdfCollision(const LinkSpec& link) {
           << "      <geometry><box size=\"" << vec(2 * toV(s.half)) << "\"/></geometry>\n    </collision>\n";
         break;
       case ShapeSpec::Type::kSphere: sphere(toV(s.pos), s.radius); break;
+      case ShapeSpec::Type::kMesh:
+        o << "    <collision>\n      <origin xyz=\"" << vec(toV(s.pos)) << "\" rpy=\""
+          << (identityQuat(s.quat) ? std::string("0 0 0") : rpyOfQuat(s.quat)) << "\"/>\n"
+          << "      <geometry><mesh filename=\"" << s.mesh << "\" scale=\"" << vec(toV(s.scale)) << "\"/></geometry>\n    </collision>\n";
+        break;
       case ShapeSpec::Type::kCapsule:
       case ShapeSpec::Type::kCylinder: {
         const Vector3d a = toV(s.from), b = toV(s.to);

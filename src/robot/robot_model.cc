@@ -106,8 +106,14 @@ RobotModel RobotModel::fromSpec(RobotSpec spec) {
               sh.size = Vec3(b.dim.x, b.dim.y, b.dim.z);
               break;
             }
+            case urdf::Geometry::MESH: {  // collides as its convex hull (MuJoCo's, FCL's, the spheres')
+              const auto& me = static_cast<const urdf::Mesh&>(*c->geometry);
+              sh.type = CollisionShape::Type::kConvex;
+              sh.hull = meshHull(me.filename, Vec3(me.scale.x, me.scale.y, me.scale.z));
+              break;
+            }
             default:
-              throw InputError(urdf_path, "link '" + link->name + "': only sphere, cylinder and box collision shapes are supported");
+              throw InputError(urdf_path, "link '" + link->name + "': only sphere, cylinder, box and mesh collision shapes are supported");
           }
           m.shapes_.push_back(sh);
         }
@@ -183,7 +189,9 @@ double RobotModel::fingertipBelowTcp() const {
     const Pose T_shape = T[s.link] * s.T_link_shape;
     // The shape's farthest point along z: box corners; a sphere's or cylinder's centre plus extent.
     double far = -1e9;
-    if (s.type == CollisionShape::Type::kBox) {
+    if (s.type == CollisionShape::Type::kConvex) {
+      for (const Vec3& v : s.hull->vertices) far = std::max(far, (T_shape * v - T_tcp.translation()).dot(z));
+    } else if (s.type == CollisionShape::Type::kBox) {
       for (int k = 0; k < 8; ++k) {
         const Vec3 corner(((k & 1) ? 0.5 : -0.5) * s.size.x(), ((k & 2) ? 0.5 : -0.5) * s.size.y(), ((k & 4) ? 0.5 : -0.5) * s.size.z());
         far = std::max(far, (T_shape * corner - T_tcp.translation()).dot(z));

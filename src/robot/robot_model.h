@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/pose.h"
+#include "robot/mesh.h"
 #include "robot/robot_spec.h"
 
 namespace mm {
@@ -17,9 +18,10 @@ using Jacobian = Eigen::Matrix<double, 6, Eigen::Dynamic>;
 
 /// A collision primitive attached to a link.
 struct CollisionShape {
-  enum class Type { kSphere, kCylinder, kBox };
+  enum class Type { kSphere, kCylinder, kBox, kConvex };
   Type type = Type::kSphere;
   Vec3 size = Vec3::Zero();  ///< sphere: (r,-,-); cylinder: (r, length, -) along z; box: full sizes [m]
+  std::shared_ptr<const ConvexHull> hull;  ///< convex: a mesh's hull, in the shape frame
   int link = 0;              ///< index into RobotModel::links()
   Pose T_link_shape = Pose::Identity();
 };

@@ -25,13 +25,15 @@ struct JointSpec {
 };
 
 struct ShapeSpec {
-  enum class Type { kCapsule, kCylinder, kBox, kSphere };
+  enum class Type { kCapsule, kCylinder, kBox, kSphere, kMesh };
   Type type = Type::kSphere;
   std::array<double, 3> from{}, to{};  ///< capsule/cylinder axis end points [m]
-  std::array<double, 3> pos{};         ///< box/sphere center [m]
+  std::array<double, 3> pos{};         ///< box/sphere center, mesh origin [m]
   std::array<double, 3> half{};        ///< box half sizes [m]
-  std::array<double, 4> quat{1, 0, 0, 0};  ///< box orientation (w, x, y, z)
+  std::array<double, 4> quat{1, 0, 0, 0};  ///< box or mesh orientation (w, x, y, z)
   double radius = 0;                   ///< [m]
+  std::string mesh;                    ///< mesh: its STL or OBJ file (absolute); it collides as its convex hull
+  std::array<double, 3> scale{1, 1, 1};  ///< mesh: scale of its vertices
 };
 
 struct LinkSpec {

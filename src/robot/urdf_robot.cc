@@ -19,6 +19,7 @@
 #include "core/error.h"
 #include "core/pose.h"
 #include "robot/arm_builder.h"
+#include "robot/mesh.h"
 #include "robot/spec_reader.h"
 #include "robot/urdf_parse.h"
 
@@ -240,7 +241,19 @@ RobotSpec loadUrdfRobotSpec(const std::string& urdf_path, const std::string& gri
           for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
           if (ext == ".dae") throw InputError(where, "mesh '" + f + "' is COLLADA (.dae), which MuJoCo 2.2 cannot read (convert it to STL or OBJ)");
           if (!std::ifstream(f)) throw InputError(where, "cannot read mesh '" + f + "'");
-          throw InputError(where, "mesh '" + f + "': mesh collision shapes are not supported yet (describe the link with primitives)");
+          const auto& me = static_cast<const urdf::Mesh&>(*c->geometry);
+          sh.type = ShapeSpec::Type::kMesh;
+          sh.mesh = fs::absolute(f).lexically_normal().string();
+          sh.scale = {me.scale.x, me.scale.y, me.scale.z};
+          try {
+            meshHull(sh.mesh, Vec3(me.scale.x, me.scale.y, me.scale.z));  // read now: a bad mesh is an input error at load
+          } catch (const InputError& e) {
+            throw InputError(where, e.what());
+          }
+          sh.pos = arm_builder::arr(Tc.translation());
+          const Quat q(Tc.linear());
+          sh.quat = {q.w(), q.x(), q.y(), q.z()};
+          break;
         }
       }
       out.shapes.push_back(sh);

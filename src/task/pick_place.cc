@@ -622,12 +622,18 @@ GraspOptions graspOptionsFor(const GripperSpec& gripper, const TaskOptions& task
   // The hand body: its front (nearest the TCP) and its half extents across.
   double front = -INFINITY, thick = 0, wide = 0;
   for (const ShapeSpec& sh : gripper.hand.shapes) {
-    if (sh.type == ShapeSpec::Type::kBox) {
+    if (sh.type == ShapeSpec::Type::kMesh) {  // its hull's vertices, placed
+      const Pose T = makePose(Vec3(sh.pos[0], sh.pos[1], sh.pos[2]), Quat(sh.quat[0], sh.quat[1], sh.quat[2], sh.quat[3]));
+      for (const Vec3& v : meshHull(sh.mesh, Vec3(sh.scale[0], sh.scale[1], sh.scale[2]))->vertices) {
+        const Vec3 p = T * v;
+        front = std::max(front, p.z()), thick = std::max(thick, std::abs(p.x())), wide = std::max(wide, std::abs(p.y()));
+      }
+    } else if (sh.type == ShapeSpec::Type::kBox) {
       front = std::max(front, sh.pos[2] + sh.half[2]);
       thick = std::max(thick, std::abs(sh.pos[0]) + sh.half[0]);
       wide = std::max(wide, std::abs(sh.pos[1]) + sh.half[1]);
     } else {
-      const double r = sh.type == ShapeSpec::Type::kSphere ? sh.radius : sh.radius;
+      const double r = sh.radius;
       const double z = sh.type == ShapeSpec::Type::kSphere ? sh.pos[2] + r : std::max(sh.from[2], sh.to[2]) + (sh.type == ShapeSpec::Type::kCapsule ? r : 0.0);
       front = std::max(front, z);
       thick = std::max(thick, r);

@@ -95,7 +95,9 @@ TEST(Campaign, MixedShapesArePickedTopDownAndFromTheSideAndRecordTheirGrasps) {
     for (const auto& c : tried) {
       EXPECT_GT(c["closure_margin"].get<double>(), 0.0);
       EXPECT_GT(c["contact_area"].get<double>(), 0.0);
-      if (c["result"] != "chosen") EXPECT_FALSE(c["result"].get<std::string>().empty());
+      if (c["result"] != "chosen") {
+        EXPECT_FALSE(c["result"].get<std::string>().empty());
+      }
     }
     shapes.insert(t["grasps"].back()["shape"].get<std::string>());
     ASSERT_EQ(t["picks"].size(), 1u);
