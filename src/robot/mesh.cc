@@ -4,7 +4,10 @@ extern "C" {
 #include <libqhull_r/qhull_ra.h>
 }
 
+#include <unistd.h>
+
 #include <cstdio>
+#include <filesystem>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -135,6 +138,28 @@ ConvexHull convexHull(const std::vector<Vec3>& points, const std::string& what) 
   h.lower = h.upper = h.vertices.front();
   for (const Vec3& p : h.vertices) h.lower = h.lower.cwiseMin(p), h.upper = h.upper.cwiseMax(p);
   return h;
+}
+
+std::string meshCacheFile(const std::vector<Vec3>& vertices) {
+  std::string text = "# vertices of a collision mesh held in memory (minimanip)\n";
+  char line[96];
+  for (const Vec3& v : vertices) {
+    std::snprintf(line, sizeof line, "v %.17g %.17g %.17g\n", v.x(), v.y(), v.z());
+    text += line;
+  }
+  uint64_t h = 1469598103934665603ull;  // FNV-1a
+  for (unsigned char c : text) h = (h ^ c) * 1099511628211ull;
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "minimanip-meshes";
+  char name[40];
+  std::snprintf(name, sizeof name, "%016llx.obj", static_cast<unsigned long long>(h));
+  const std::filesystem::path path = dir / name;
+  if (!std::filesystem::exists(path)) {
+    std::filesystem::create_directories(dir);
+    const std::filesystem::path tmp = dir / (std::string(name) + "." + std::to_string(::getpid()) + ".tmp");
+    std::ofstream(tmp) << text;
+    std::filesystem::rename(tmp, path);
+  }
+  return path.string();
 }
 
 std::shared_ptr<const ConvexHull> meshHull(const std::string& path, const Vec3& scale) {

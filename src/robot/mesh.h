@@ -25,6 +25,10 @@ std::vector<Vec3> readMeshVertices(const std::string& path, const Vec3& scale = 
 /// volume (fewer than four, or all on a plane).
 ConvexHull convexHull(const std::vector<Vec3>& points, const std::string& what);
 
+/// An OBJ file of these vertices (a mesh a description holds in memory, e.g. MuJoCo's compiled
+/// one), under the temporary directory, named by its content and written once; its path.
+std::string meshCacheFile(const std::vector<Vec3>& vertices);
+
 /// The hull of a mesh file, scaled; read once per (file, scale) and shared.
 std::shared_ptr<const ConvexHull> meshHull(const std::string& path, const Vec3& scale = Vec3::Ones());
 

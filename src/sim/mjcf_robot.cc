@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "robot/arm_builder.h"
+#include "robot/mesh.h"
 #include "sim/mjcf_check.h"
 #include "sim/sim_world.h"
 
@@ -116,9 +117,23 @@ RobotSpec readMjcfArm(const std::string& path, const mjModel* m, const std::stri
           sh.quat = {q.w(), q.x(), q.y(), q.z()};
           break;
         }
+        case mjGEOM_MESH: {  // MuJoCo's compiled vertices (in the geom's frame), colliding as their hull
+          const int id = m->geom_dataid[g];
+          std::vector<Vec3> v;
+          for (int i = 0; i < m->mesh_vertnum[id]; ++i) {
+            const float* p = m->mesh_vert + 3 * (m->mesh_vertadr[id] + i);
+            v.emplace_back(p[0], p[1], p[2]);
+          }
+          sh.type = ShapeSpec::Type::kMesh;
+          sh.mesh = meshCacheFile(v);
+          sh.pos = arm_builder::arr(Tg.translation());
+          const Quat q(Tg.linear());
+          sh.quat = {q.w(), q.x(), q.y(), q.z()};
+          break;
+        }
         default:
           throw InputError(path, "body '" + bodyName(m, b) + "': collision geom " + std::to_string(g) +
-                                     " is not a sphere, capsule, cylinder or box (meshes are not supported yet)");
+                                     " is not a sphere, capsule, cylinder, box or mesh");
       }
       out.shapes.push_back(sh);
     }

@@ -205,6 +205,55 @@ TEST(Mesh, AUrdfMeshLinkCollidesAsItsHullInFclTheSpheresAndMujoco) {
   EXPECT_GT(world->numObjects(), -1);
 }
 
+// The same link in the Panda's MJCF: link 6's body capsule as a mesh geom of that prism. The
+// robot read from the MJCF takes MuJoCo's compiled vertices, and the hull sits where the MJCF put
+// it in the link's frame.
+struct MeshPandaMjcf {
+  TempDir dir;
+  std::string mjcf;
+  MeshPandaMjcf() {
+    writePrismObj(dir.path() / "link6_body.obj", 0.055 / std::cos(M_PI / 8), 0.06, 8);
+    std::stringstream ss;
+    ss << std::ifstream("robots/panda/panda.xml").rdbuf();
+    std::string text = ss.str();
+    const std::string compiler = "<compiler angle=\"radian\"/>";
+    text.replace(text.find(compiler), compiler.size(), compiler + "\n  <asset><mesh name=\"link6_body\" file=\"link6_body.obj\"/></asset>");
+    const std::string capsule = R"(type="capsule" fromto="0 0 -0.04 0 0 0.02" size="0.055")";
+    const size_t at = text.find(capsule, text.find("panda_link6_c0"));
+    if (at == std::string::npos) throw std::runtime_error("panda.xml changed: link 6's body capsule not found");
+    text.replace(at, capsule.size(), R"(type="mesh" mesh="link6_body" pos="0 0 -0.01")");
+    mjcf = (dir.path() / "panda_mesh.xml").string();
+    std::ofstream(mjcf) << text;
+    std::stringstream ys;
+    ys << std::ifstream("robots/panda/panda.xml.yaml").rdbuf();
+    std::string side = ys.str();
+    const std::string g = "gripper: ../grippers/panda_hand.yaml";
+    side.replace(side.find(g), g.size(), "gripper: " + fs::absolute("robots/grippers/panda_hand.yaml").string());
+    std::ofstream(mjcf + ".yaml") << side;
+  }
+};
+
+TEST(Mesh, AnMjcfMeshGeomCollidesAsItsHullWhereTheMjcfPutsIt) {
+  MeshPandaMjcf p;
+  const RobotModel robot = loadAnyRobot(p.mjcf);
+  int hulls = 0;
+  for (const CollisionShape& s : robot.collisionShapes()) {
+    if (s.type != CollisionShape::Type::kConvex) continue;
+    ++hulls;
+    EXPECT_EQ(robot.links()[s.link].name, "panda_link6");
+    EXPECT_EQ(s.hull->vertices.size(), 16u);
+    double zmin = 1, zmax = -1, radial = 0;
+    for (const Vec3& v : s.hull->vertices) {
+      const Vec3 w = s.T_link_shape * v;
+      zmin = std::min(zmin, w.z()), zmax = std::max(zmax, w.z()), radial = std::max(radial, w.head<2>().norm());
+    }
+    EXPECT_NEAR(zmin, -0.04, 1e-6);
+    EXPECT_NEAR(zmax, 0.02, 1e-6);
+    EXPECT_NEAR(radial, 0.055 / std::cos(M_PI / 8), 1e-6);
+  }
+  EXPECT_EQ(hulls, 1);
+}
+
 // The quickstart with that robot: the same success per trial as the Panda from its URDF, place
 // errors within 0.2 mm (link 6 touches nothing in these trials).
 TEST(Mesh, TheQuickstartWithAMeshLinkPlacesAsWithThePrimitive) {
