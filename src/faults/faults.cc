@@ -77,6 +77,7 @@ class FaultInjector::Faulty final : public ForwardingHardware {
  public:
   using ForwardingHardware::ForwardingHardware;
   bool block_next_close = false;   // armed: the next close command is ignored
+  bool blocking = false;           // ignoring close commands until the gripper is told to open
   bool blocked = false;            // it happened
   double blocked_at = -1;
   int stall_joint = -1;
@@ -101,12 +102,15 @@ class FaultInjector::Faulty final : public ForwardingHardware {
   }
   void writeGripper(double opening, double force) override {
     last_opening = opening, last_force = force;
-    if (block_next_close && opening <= 1e-3) {  // the fingers stay where they are
+    // The fingers stay where they are, for every close command of that grasp (an early close as
+    // the approach ends, then the close stage's own) until the gripper is told to open.
+    if ((block_next_close || blocking) && opening <= 1e-3) {
+      if (block_next_close) blocked_at = in_.time();
       block_next_close = false;
-      blocked = true;
-      blocked_at = in_.time();
+      blocking = blocked = true;
       return in_.writeGripper(in_.gripperOpening(), force);
     }
+    if (opening > 1e-3) blocking = false;
     if (slip_until >= 0) return;  // slipping: the gripper is open until the window ends
     in_.writeGripper(opening, force);
   }

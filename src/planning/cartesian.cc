@@ -3,12 +3,15 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "planning/jerk.h"
 
 namespace mm {
 
 void CartesianOptions::declare(ConfigArchive& a) {
   a.value("cartesian_speed", speed, {0.01, 1.0}, "m/s", "TCP speed limit on straight-line moves");
   a.value("cartesian_acceleration", acceleration, {0.05, 5.0}, "m/s^2", "TCP acceleration limit on straight-line moves");
+  a.value("cartesian_jerk", jerk, {1.0, 10000.0}, "m/s^3",
+          "TCP jerk limit on straight-line moves (a double-S profile; Franka's published Cartesian limit is 6500)");
 }
 
 CartesianPath planCartesianLine(const RobotModel& robot, CollisionChecker& checker, const VecX& q_start,
@@ -58,25 +61,25 @@ JointTrajectory cartesianTrajectory(const RobotModel& robot, const CartesianPath
   const double ang = angleBetween(path.T_start.linear(), path.T_goal.linear());
   // Distance along the line, with rotation counted as 0.1 m per rad so pure turns move too.
   const double S = std::max(L, 0.1 * ang);
-  double v = o.speed, a = o.acceleration;
+  double v = o.speed, a = o.acceleration, j = o.jerk;
   JointTrajectory t;
   t.dt = dt;
   for (int attempt = 0; attempt < 12; ++attempt) {
-    const double ta = std::min(v / a, std::sqrt(S / a));
-    const double vp = a * ta;
-    const double T = 2 * ta + (S - vp * ta) / vp;
-    const int N = std::max(2, static_cast<int>(std::ceil(T / dt - 1e-9)) + 1);
-    const double stretch = T / ((N - 1) * dt);  // whole periods: slightly slower, never faster
+    // The shortest double-S from rest to rest over S (jerk ramps, acceleration held, cruise), then
+    // the profile of that duration rounded up to whole periods (slightly slower, never faster).
+    const double T = jerkMinTime(S, 0, 0, v, a, j);
+    if (!std::isfinite(T)) return {};
+    int N = std::max(2, static_cast<int>(std::ceil(T / dt - 1e-9)) + 1);
+    JerkProfile profile;
+    while (!jerkProfileForDuration(0, S, 0, 0, v, a, j, (N - 1) * dt, profile))
+      if (++N > static_cast<int>(std::ceil(2 * T / dt)) + 3) return {};
     t.q.resize(robot.dof(), N);
     t.q.col(0) = q_from ? *q_from : path.waypoints.front();
     VecX q = t.q.col(0), next;
     bool ok = true;
     for (int k = 1; k < N && ok; ++k) {
-      const double tt = k * dt * stretch;
-      double s;
-      if (tt < ta) s = 0.5 * a * tt * tt;
-      else if (tt < T - ta) s = 0.5 * a * ta * ta + vp * (tt - ta);
-      else s = S - 0.5 * a * std::pow(std::max(0.0, T - tt), 2);
+      double s, sd, sdd;
+      profile.eval(k * dt, s, sd, sdd);
       const double f = k == N - 1 ? 1.0 : std::clamp(s / S, 0.0, 1.0);
       const Pose Tk = makePose(p0 + f * (p1 - p0), q0.slerp(f, q1));
       ok = ik(Tk, q, next);
@@ -87,10 +90,12 @@ JointTrajectory cartesianTrajectory(const RobotModel& robot, const CartesianPath
     const LimitReport rep = checkLimits(t, robot, 0.0);
     const double rv = rep.max_velocity_ratio / scale.velocity, ra = rep.max_acceleration_ratio / scale.acceleration;
     if (rep.positions_ok && rv <= 1.0 && ra <= 1.0) return t;
-    // Slow down by what the worst joint needs (velocity scales with v, acceleration with v^2 and a).
+    // Slow down by what the worst joint needs (velocity scales with v, acceleration with v^2 and a,
+    // jerk with v^3).
     const double k = std::max(rv, std::sqrt(ra)) * 1.05;
     v /= k;
     a /= k * k;
+    j /= k * k * k;
   }
   return {};
 }

@@ -22,6 +22,7 @@ struct CartesianOptions {
   double max_joint_step = 0.1;  ///< [rad] larger jumps between waypoints mean a branch flip
   double speed = 0.2;           ///< [m/s] TCP speed limit
   double acceleration = 1.0;    ///< [m/s^2] TCP acceleration limit
+  double jerk = 500.0;          ///< [m/s^3] TCP jerk limit (Franka's Cartesian limit: 6500)
 };
 
 struct CartesianPath {
@@ -38,8 +39,8 @@ struct CartesianPath {
 CartesianPath planCartesianLine(const RobotModel& robot, CollisionChecker& checker, const VecX& q_start,
                                 const Pose& T_goal, const IkFunction& ik, const CartesianOptions& options);
 
-/// One trapezoid in the TCP's distance along the line (within the TCP speed and acceleration
-/// limits), sampled every `dt` with IK from the previous sample, so the joint motion is smooth;
+/// One jerk-limited double-S profile in the TCP's distance along the line (within the TCP speed,
+/// acceleration and jerk limits), sampled every `dt` with IK from the previous sample, so the joint motion is smooth;
 /// then checked against the scaled joint limits and slowed down until it holds. Empty when IK
 /// fails along the way (the path's waypoints already proved the line feasible). It starts at
 /// `q_from` when given (where the previous motion left the arm: the same TCP pose as the path's

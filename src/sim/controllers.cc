@@ -121,8 +121,10 @@ void TrajectoryMotion::stop(Hardware& hw) {
     k_ = 0;
     return;
   }
-  if (streaming_ && k_ + 2 < traj_.size()) {
-    traj_ = controlledStop(traj_, k_ + 1, robot_.vmax(), robot_.amax(), robot_.jmax());
+  const JointTrajectory& along = stop_path_.empty() ? traj_ : stop_path_;
+  if (streaming_ && k_ + 2 < along.size()) {
+    traj_ = controlledStop(along, k_ + 1, robot_.vmax(), robot_.amax(), robot_.jmax());
+    stop_path_ = JointTrajectory{};
     k_ = -1;  // observe() moves it onto sample 0 of the stop, where the joints are being sent
   } else if (tracking) {
     traj_ = JointTrajectory::startingAt(traj_.q.col(std::min(k_ + 1, traj_.size() - 1)), 1, traj_.dt);
@@ -135,8 +137,10 @@ void TrajectoryMotion::halt(Hardware& hw) {
   if (!running()) return;
   halted_ = true;
   if (!started()) return succeed(hw);
-  if (streaming_ && k_ + 1 < traj_.size()) {
-    traj_ = controlledStop(traj_, k_, robot_.vmax(), robot_.amax(), robot_.jmax());
+  const JointTrajectory& along = stop_path_.empty() ? traj_ : stop_path_;
+  if (streaming_ && k_ + 1 < along.size()) {
+    traj_ = controlledStop(along, k_, robot_.vmax(), robot_.amax(), robot_.jmax());
+    stop_path_ = JointTrajectory{};
     k_ = 0;
     return;  // the stop streams, then the settle holds its end
   }
@@ -174,6 +178,7 @@ void GripperMotion::observe(Hardware& hw) {
   still_ = std::abs(now - last_) < 5e-3 * hw.period() ? still_ + 1 : 0;
   last_ = now;
   const bool at_goal = std::abs(now - opening_) < 5e-4;
+  if (clear_at_ > 0 && now >= clear_at_) return succeed(hw);
   if (still_ >= static_cast<int>((at_goal ? 0.01 : 0.05) / hw.period())) succeed(hw);
 }
 

@@ -77,6 +77,10 @@ class TrajectoryMotion final : public Motion {
   /// Once the last sample is sent (the settle begins), command the gripper to `opening` with
   /// `force`: the next step's close starts while the arm settles.
   void closeWhileSettling(double opening, double force) { settle_opening_ = opening, settle_force_ = force; }
+  /// A trajectory cut short to hand on while moving (blended into the next, planning/blend.h):
+  /// `path` is the whole of it, ending at rest, of which it is the start; a halt or a monitor's
+  /// stop brakes along that path (the cut one's end is no place to stop).
+  void stopAlong(JointTrajectory path) { stop_path_ = std::move(path); }
   bool command(Hardware& hw) override;
   void observe(Hardware& hw) override;
   void halt(Hardware& hw) override;
@@ -85,6 +89,7 @@ class TrajectoryMotion final : public Motion {
 
  private:
   JointTrajectory traj_;
+  JointTrajectory stop_path_;  // empty: traj_ itself
   double opening_, force_;
   StepMonitor monitor_;
   const RobotModel& robot_;
@@ -109,10 +114,14 @@ class GripperMotion final : public Motion {
   void observe(Hardware& hw) override;
   void halt(Hardware& hw) override;
   double opening() const { return final_opening_; }  ///< [m] per finger when done
+  /// Opening: done as soon as the fingers are this far open [m per finger], still moving on to
+  /// the goal (a release hands on to the retreat once the pads have left the object).
+  void doneWhenOpenTo(double opening) { clear_at_ = opening; }
 
  private:
   VecX q_hold_;
   double opening_, force_, timeout_;
+  double clear_at_ = -1;
   double last_ = 0, final_opening_ = 0;
   int still_ = 0;
 };

@@ -81,6 +81,7 @@ struct SimWorld::Impl {
   double payload_mass = 0;
   Vec3 payload_tcp = Vec3::Zero();
   double finger_ramp[2] = {0, 0};
+  double finger_goal = -1;  ///< the opening last commanded [m per finger]
   double finger_vmax = 0.2;
   // monitors
   std::set<std::pair<int, int>> touching;
@@ -93,11 +94,92 @@ struct SimWorld::Impl {
   std::vector<mjtNum> scratch_a, scratch_b, scratch_jac;
   std::vector<double>* ctrl_log = nullptr;
   int substeps = 1;  ///< physics steps per control period
+  bool velocity_product = true;  ///< PhysicsOptions::velocity_product
+  std::vector<mjtNum> cacc_vp;   ///< per body, the com-based acceleration at qacc = 0 (6 x nbody)
   mjOption scene_option;  ///< the scene's own numerics, before any PhysicsOptions
 
   ~Impl() {
     if (d) mj_deleteData(d);
     if (m) mj_deleteModel(m);
+  }
+
+  /// MuJoCo asks each contact row for J qacc = aref (aref = -b v - k r, v the row's velocity
+  /// J qvel), but a row's velocity changes by J qacc + J'q': the velocity-product term, which
+  /// MuJoCo's constraint dynamics leave out (its documentation, "Computation"). For an object held
+  /// by friction on a swinging arm, J'q' is the difference of the hand's and the object's
+  /// centripetal and Coriolis accelerations at the contact, and nothing but the damping -b v
+  /// answers it: the object creeps along the pads (issue 13: 1.6 mm through a full-speed transfer,
+  /// always the same way). Subtracting all of J'q' overshoots in MuJoCo's discrete step, measured:
+  /// the creep reverses. The step moves the contact points along curved paths (the hand's point by
+  /// exp of its joints' motion, the object's by its free joint's rotation), which part way makes up
+  /// for the missing term. For a sticking row with a soft constraint of impedance d (it reaches
+  /// d of aref) and damping b, its velocity u at a step's start and the relative displacement over
+  /// a step with timestep h obey, with k = d b h and c the part of J'q' subtracted,
+  ///   u' = (1 - k) u + h (1 - d c) J'q',   displacement = h ((1 - k) u - h d c J'q') + h^2/2 J'q',
+  /// and the steady displacement vanishes for d c = 1 - k/2: half of J'q' when the constraint is
+  /// deadbeat (k = 1, the pads' solref of two timesteps), all of it as h -> 0. So each row's aref
+  /// loses (1 - k/2) / d of its J'q', computed between mj_step1 (aref, cvel, cdof_dot, impedances)
+  /// and mj_step2 (the solve).
+  void addVelocityProduct() {
+    if (!velocity_product || d->ncon == 0) return;
+    const int nb = m->nbody;
+    cacc_vp.assign(6 * static_cast<size_t>(nb), 0.0);
+    for (int b = 1; b < nb; ++b) {  // as mj_rne with qacc = 0 and no gravity: parents come first
+      mjtNum* a = cacc_vp.data() + 6 * b;
+      const mjtNum* ap = cacc_vp.data() + 6 * m->body_parentid[b];
+      for (int k = 0; k < 6; ++k) a[k] = ap[k];
+      for (int j = m->body_dofadr[b]; j < m->body_dofadr[b] + m->body_dofnum[b]; ++j)
+        for (int k = 0; k < 6; ++k) a[k] += d->cdof_dot[6 * j + k] * d->qvel[j];
+    }
+    // A point's acceleration in the world frame (angular, linear), as mj_objectAcceleration turns
+    // the com-based spatial acceleration into a point's: shift to the point, add omega x v.
+    auto pointAcc = [&](int b, const mjtNum* p, mjtNum out[6]) {
+      if (b == 0) {
+        mju_zero(out, 6);
+        return;
+      }
+      const mjtNum* com = d->subtree_com + 3 * m->body_rootid[b];
+      mjtNum vel[6], corr[3];
+      mju_transformSpatial(out, cacc_vp.data() + 6 * b, 0, p, com, nullptr);
+      mju_transformSpatial(vel, d->cvel + 6 * b, 0, p, com, nullptr);
+      mju_cross(corr, vel, vel + 3);
+      mju_addTo3(out + 3, corr);
+    };
+    const bool elliptic = m->opt.cone == mjCONE_ELLIPTIC;
+    const double h = m->opt.timestep;
+    for (int i = 0; i < d->ncon; ++i) {
+      const mjContact& c = d->contact[i];
+      if (c.exclude || c.efc_address < 0) continue;
+      mjtNum a1[6], a2[6], rel[6];
+      pointAcc(m->geom_bodyid[c.geom1], c.pos, a1);
+      pointAcc(m->geom_bodyid[c.geom2], c.pos, a2);
+      mju_sub(rel, a2, a1, 6);  // MuJoCo's contact rows are body 2's motion relative to body 1's
+      // In the contact frame: normal, tangent 1, tangent 2 (linear), then torsion and rolling.
+      const mjtNum comp[6] = {mju_dot3(c.frame, rel + 3),     mju_dot3(c.frame + 3, rel + 3),
+                              mju_dot3(c.frame + 6, rel + 3), mju_dot3(c.frame, rel),
+                              mju_dot3(c.frame + 3, rel),     mju_dot3(c.frame + 6, rel)};
+      auto subtract = [&](int row, mjtNum jdot) {
+        const mjtNum* kbip = d->efc_KBIP + 4 * row;
+        const mjtNum imp = std::max(kbip[2], mjMINIMP);
+        d->efc_aref[row] -= (1.0 / imp - 0.5 * kbip[1] * h) * jdot;
+      };
+      const int adr = c.efc_address;
+      if (elliptic || c.dim == 1) {
+        for (int r = 0; r < c.dim; ++r) subtract(adr + r, comp[r]);
+      } else {  // pyramidal: edge rows J_normal +- friction_k J_k
+        for (int k = 0; k < c.dim - 1; ++k) {
+          subtract(adr + 2 * k, comp[0] + c.friction[k] * comp[k + 1]);
+          subtract(adr + 2 * k + 1, comp[0] - c.friction[k] * comp[k + 1]);
+        }
+      }
+    }
+  }
+
+  /// One physics step: mj_step as MuJoCo's split step, the velocity-product term in between.
+  void physicsStep() {
+    mj_step1(m, d);
+    addVelocityProduct();
+    mj_step2(m, d);
   }
 
   void monitor() {
@@ -201,6 +283,9 @@ void PhysicsOptions::declare(ConfigArchive& a) {
   a.value("iterations", iterations, {0, 1000}, "", "the solver's maximum iterations; 0: the scene's");
   a.value("tolerance", tolerance, {-1, 1}, "", "the solver's tolerance (0: run all iterations); -1: the scene's");
   a.value("noslip_iterations", noslip_iterations, {-1, 1000}, "", "MuJoCo's no-slip iterations; -1: the scene's");
+  a.value("velocity_product", velocity_product,
+          "add to each contact's reference acceleration the velocity-product term (J'q') MuJoCo 2.2 leaves out, "
+          "so that friction holds an object on a swinging arm instead of letting it creep along the pads");
 }
 
 void SimWorld::applyPhysics(Impl& I, const PhysicsOptions& p, const std::string& file) {
@@ -219,6 +304,7 @@ void SimWorld::applyPhysics(Impl& I, const PhysicsOptions& p, const std::string&
   if (p.iterations > 0) o.iterations = p.iterations;
   if (p.tolerance >= 0) o.tolerance = p.tolerance;
   if (p.noslip_iterations >= 0) o.noslip_iterations = p.noslip_iterations;
+  I.velocity_product = p.velocity_product;
   const double n = kControlPeriod / o.timestep;
   if (!(o.timestep > 0) || std::abs(n - std::round(n)) > 1e-9 * n) {
     char buf[160];
@@ -599,7 +685,13 @@ void SimWorld::stepServo(const VecX& q, const VecX& qd, const VecX& qdd, double 
   }
   // Fingers: a target ramped at the finger speed limit, PD force clamped to the force limit.
   const double dt = kControlPeriod;
+  // A new goal starts its ramp where the finger is (bumpless): a release from a squeeze would
+  // otherwise first run the ramp back from the closed goal through the object, the fingers still
+  // squeezing for 0.12 s, and the gripper, still for 50 ms, would report them done before they let go.
+  const bool new_goal = finger_target != I.finger_goal;
+  I.finger_goal = finger_target;
   for (int k = 0; k < 2; ++k) {
+    if (new_goal) I.finger_ramp[k] = d->qpos[I.finger_qpos[k]];
     const double step = I.finger_vmax * dt;
     double& r = I.finger_ramp[k];
     const double vref = finger_target > r + step ? I.finger_vmax : (finger_target < r - step ? -I.finger_vmax : 0.0);
@@ -611,8 +703,12 @@ void SimWorld::stepServo(const VecX& q, const VecX& qd, const VecX& qdd, double 
   for (int sub = 0; sub < I.substeps; ++sub) {
     if (I.ctrl_log) I.ctrl_log->insert(I.ctrl_log->end(), d->ctrl, d->ctrl + m->nu);
     try {
-      if (sub == 0) mj_step2(m, d);
-      else mj_step(m, d);
+      if (sub == 0) {
+        I.addVelocityProduct();
+        mj_step2(m, d);
+      } else {
+        I.physicsStep();
+      }
     } catch (const std::runtime_error& e) {
       I.unstable = true;
       I.instability = e.what();
@@ -651,7 +747,7 @@ double SimWorld::replayControls(const std::vector<double>& log, ReplayCounts* co
   const double t0 = I.d->time;
   for (size_t k = 0; k + I.m->nu <= log.size(); k += I.m->nu) {
     std::copy(log.begin() + k, log.begin() + k + I.m->nu, I.d->ctrl);
-    mj_step(I.m, I.d);
+    I.physicsStep();
     if (counts) {
       ++counts->steps;
       counts->contacts += I.d->ncon;

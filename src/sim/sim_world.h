@@ -54,6 +54,9 @@ struct PhysicsOptions {
   int iterations = 0;                ///< 0: the scene's
   double tolerance = -1;             ///< < 0: the scene's
   int noslip_iterations = -1;        ///< < 0: the scene's
+  /// Adds to every contact's reference acceleration the velocity-product term J'q' that MuJoCo 2.2's
+  /// constraints leave out, so that static friction holds an object on a swinging arm.
+  bool velocity_product = true;
 };
 
 /// [s] The servo's control period (500 Hz), whatever the physics timestep.

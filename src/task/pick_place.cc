@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "planning/blend.h"
 #include "planning/chomp.h"
 #include "planning/time_parameterization.h"
 #include "sim/hardware.h"
@@ -27,6 +28,7 @@ constexpr double kStartTolerance = 0.01;
 // space) from the waypoint the line was planned to, so plans end, and hold, where their
 // trajectories end.
 VecX endOf(const JointTrajectory& t) { return t.q.col(t.size() - 1); }
+constexpr double kReleaseClearance = 0.003;  ///< [m] per finger: the pads this far off the object end a release
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 Obstacle boxOf(const ObjectState& o) {
@@ -115,6 +117,19 @@ Failure connect(TrialContext& ctx, const std::string& stage, CollisionChecker& c
   out = std::move(t.trajectory);
   ctx.milestone("plan:" + stage);
   return {};
+}
+
+// Blends the joint-space move `connect` into the straight line after it (motion.blend_radius,
+// planning/blend.h), the blended samples checked with `checker`. Returns the whole of `connect`
+// as it was when it now ends moving (the path a stop brakes along), else an empty trajectory.
+JointTrajectory blendIntoLine(TrialContext& ctx, JointTrajectory& connect, JointTrajectory& line, CollisionChecker& checker) {
+  const TaskOptions& o = ctx.options;
+  if (o.blend_radius <= 0 || o.settle_every_move) return {};
+  JointTrajectory whole = connect;
+  const long checks = checker.checks();
+  const int k = blendJunction(connect, line, ctx.robot, {o.blend_radius, o.scaling}, [&](const VecX& q) { return checker.isValid(q); });
+  ctx.out.collision_checks += checker.checks() - checks;
+  return k > 0 ? whole : JointTrajectory{};
 }
 
 PlanStep trajectoryStep(const std::string& stage, JointTrajectory t, double opening, bool holding) {
@@ -222,6 +237,7 @@ class PlanExecution final : public Motion {
             s.trajectory, s.opening, force, monitor, ctx_.robot, settle ? 0.3 : 0.0, ctx_.options.path_tolerance,
             s.stiff ? ctx_.options.push_force_limit : ctx_.options.contact_force_limit, s.guarded);
         motion->setSettleTolerance(1e-3, ctx_.options.settle_velocity);
+        if (!s.stop_path.empty()) motion->stopAlong(s.stop_path);
         if (gripper_next && ctx_.options.close_early && !plan_.steps[next_].release && plan_.steps[next_].opening < s.opening)
           motion->closeWhileSettling(plan_.steps[next_].opening, force);
         current_ = std::move(motion);
@@ -236,11 +252,17 @@ class PlanExecution final : public Motion {
           // fingers begin to open, against where it sat when they closed.
           const Pose T_tcp_obj = hw.tcpPose().inverse() * hw.object(ctx_.held).T_world_object;
           ctx_.held_record.in_hand_slip = (T_tcp_obj.translation() - ctx_.T_tcp_held_actual.translation()).norm();
-          hw.setPayload(0, Vec3::Zero());
         }
         // Detach before opening, as the source's task (weld mode: the attach plugin).
         if (s.release && ctx_.held >= 0 && ctx_.options.weld) hw.attach(ctx_.held, false);
-        current_ = std::make_unique<GripperMotion>(s.q_hold, s.opening, force);
+        {
+          auto gripper = std::make_unique<GripperMotion>(s.q_hold, s.opening, force);
+          // A release hands on to the retreat once the pads are 3 mm clear of the object's faces;
+          // the fingers open on to their goal as the arm rises.
+          if (s.release && ctx_.held >= 0 && ctx_.held_record.grasp_opening > 0)
+            gripper->doneWhenOpenTo(std::min(s.opening, ctx_.held_record.grasp_opening + kReleaseClearance));
+          current_ = std::move(gripper);
+        }
         ctx_.gripper_opening = s.opening;
         break;
       case PlanStep::Kind::kAttach:
@@ -395,6 +417,10 @@ class PlanExecution final : public Motion {
   // it is back in the world, to be perceived and picked again.
   void letGo() {
     if (ctx_.held < 0) return;
+    // The servo carries the object's weight until the fingers have opened (Franka's setLoad after
+    // the gripper's move): dropped as the opening begins, the arm sagged under the still-held
+    // object by 0.3 mm in x and y (issue 13, the place error's last systematic part).
+    ctx_.hw.setPayload(0, Vec3::Zero());
     PickRecord r = ctx_.held_record;
     r.at_target = ctx_.over_target.has_value();
     if (r.at_target) {
@@ -823,6 +849,7 @@ Failure planPick(TrialContext& ctx, const GraspSolution& g, Plan& out) {
   if (t_approach.empty() || t_lift.empty())
     return done({t_approach.empty() ? "approach" : "lift", FailureKind::kTimeParameterization,
                  "no smooth time parameterization of the straight line"});
+  JointTrajectory connect_whole = blendIntoLine(ctx, t_connect, t_approach, *full);
   // The fingers open to the object's half width plus a margin, not wider: in a bin, the room
   // beside the object is what limits a grasp.
   out = Plan{};
@@ -831,6 +858,7 @@ Failure planPick(TrialContext& ctx, const GraspSolution& g, Plan& out) {
   out.bucket = TimeBucket::kPick;
   out.steps.push_back(gripperStep("open_gripper", ctx.q_rest, g.pre_opening));
   out.steps.push_back(trajectoryStep("move_pregrasp", std::move(t_connect), g.pre_opening, false));
+  out.steps.back().stop_path = std::move(connect_whole);
   const VecX q_grasp = endOf(t_approach), q_lifted = endOf(t_lift);
   out.steps.push_back(trajectoryStep("approach", std::move(t_approach), g.pre_opening, false));
   PlanStep close = gripperStep("close_gripper", q_grasp, 0.0);
@@ -984,12 +1012,14 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   if (t_descend.empty() || t_retreat.empty())
     return done_connect({t_descend.empty() ? "place" : "retreat", FailureKind::kTimeParameterization,
                          "no smooth time parameterization of the straight line"});
+  JointTrajectory connect_whole = blendIntoLine(ctx, t_connect, t_descend, *carrying);
   const VecX q_down = endOf(t_descend), q_retreated = endOf(t_retreat);
   out = Plan{};
   out.q_start = q_lift;
   out.name = "place";
   out.bucket = TimeBucket::kPlace;
   out.steps.push_back(trajectoryStep("move_preplace", std::move(t_connect), 0.0, true));
+  out.steps.back().stop_path = std::move(connect_whole);
   out.steps.push_back(trajectoryStep("place", std::move(t_descend), 0.0, true));
   out.steps.back().guarded = true;  // the held object meeting the surface early is touch-down, not a fault
   out.q_end = q_down;
@@ -1223,11 +1253,16 @@ Failure planPushOf(TrialContext& ctx, const ObjectState& object, Plan& out) {
       continue;
     }
     const double dt = ctx.hw.period();
-    // Each line starts where the one before ends.
-    JointTrajectory t_down = cartesianTrajectory(ctx.robot, down, ikNear(ctx), o.scaling, o.cartesian, dt), t_push, t_up;
+    // Each line starts where the one before ends. The contact moves (down beside or onto the
+    // object, the push or drag) go no faster than 0.2 m/s and 1 m/s^2, however fast the cell's
+    // free lines: a push is a contact task (at 0.5 m/s it struck the cube with over 100 N).
+    CartesianOptions contact = o.cartesian;
+    contact.speed = std::min(contact.speed, 0.2);
+    contact.acceleration = std::min(contact.acceleration, 1.0);
+    JointTrajectory t_down = cartesianTrajectory(ctx.robot, down, ikNear(ctx), o.scaling, contact, dt), t_push, t_up;
     if (!t_down.empty()) {
       const VecX q_down = endOf(t_down);
-      t_push = cartesianTrajectory(ctx.robot, push, ikNear(ctx), o.scaling, o.cartesian, dt, &q_down);
+      t_push = cartesianTrajectory(ctx.robot, push, ikNear(ctx), o.scaling, contact, dt, &q_down);
     }
     if (!t_push.empty()) {
       const VecX q_pushed = endOf(t_push);

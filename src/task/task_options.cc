@@ -13,7 +13,7 @@ void TaskOptions::declare(ConfigArchive& a) {
   a.value("force", grasp_force, {1.0, 1000.0}, "N", "finger force limit while grasping, at most the gripper's max_force");
   a.value("close_early", close_early,
           "the fingers start closing as the approach's last setpoint is sent, while the arm settles at the grasp pose, "
-          "instead of once it is still (the fault gripper_no_close strikes the close_gripper stage only: leave it off with faults)");
+          "instead of once it is still (the fault gripper_no_close blocks that close too; it is recorded in the close_gripper stage)");
   a.value("payload_compensation", payload_compensation,
           "while an object is held, the servo compensates its weight and commanded acceleration (its kind's nominal mass at "
           "the planned grasp's centre, as Franka's setLoad); false: the arm sags under it");
@@ -55,6 +55,10 @@ void TaskOptions::declare(ConfigArchive& a) {
           "hold the arm at every move's end until it is still (1 mrad, 1 mrad/s; at most 0.3 s); false: only where the gripper "
           "acts next (grasp, release) and after pushes, a move followed by another handing on as its last setpoint is sent "
           "(shorter cycles; bin clearing's 50 trials of seed 1 placed 488 of 500 cubes so, 495 with it)");
+  a.value("blend_radius", blend_radius, {0.0, 0.05}, "m",
+          "at the pre-grasp and the pre-place the joint-space move and the straight line after it run together (superposed, "
+          "within the limits, collision-checked) while the TCP is within this distance of the corner, so the arm does not "
+          "stop there; 0: it stops. Only when motion.settle_every_move is false");
   a.value("acceleration_scaling", scaling.acceleration, {0.01, 1.0}, "", "fraction of the joint acceleration limits (jerk scales alike)");
   cartesian.declare(a);
   a.leave();

@@ -41,6 +41,7 @@ struct TaskOptions {
   double settle_velocity = 1e-3;         ///< [rad/s] still, at a move's end
   bool close_early = false;              ///< the grasp's close starts as the approach's last setpoint is sent
   bool settle_every_move = true;         ///< hold the arm still at every move's end (false: only before the gripper acts and after pushes)
+  double blend_radius = 0.02;            ///< [m] pre-grasp and pre-place blends (planning/blend.h; 0: none; only without settle_every_move)
   double contact_force_limit = 20;       ///< [N] an external contact force past this stops the motion (0: off)
   double push_force_limit = 100;         ///< [N] the same during a push (a contact task)
   double scene_update_period = 0.1;      ///< [s] obstacle sensing while moving (0: none)

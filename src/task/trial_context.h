@@ -36,6 +36,7 @@ struct PlanStep {
   Kind kind = Kind::kTrajectory;
   std::string stage;            ///< recorded under this name
   JointTrajectory trajectory;   ///< kTrajectory
+  JointTrajectory stop_path;    ///< kTrajectory blended into the next (ending moving): the whole of it, to brake along
   double opening = 0;           ///< [m] per finger: the gripper's goal (kGripper) or its setting during a trajectory
   VecX q_hold;                  ///< kGripper: the arm is held here
   bool holding = false;         ///< kTrajectory: watch the held object for a drop

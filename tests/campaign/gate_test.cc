@@ -158,19 +158,19 @@ TEST(Gate, AnOptionDeclaredAfterTheBaselineMattersOnlyAwayFromItsDefault) {
   TempDir d;
   const std::string base = (d.path() / "base").string(), set = (d.path() / "set").string();
   ASSERT_EQ(runMinimanip(kMock + " --trials 2 --out " + base).code, 0);
-  ASSERT_EQ(runMinimanip(kMock + " --trials 2 --set grasp.close_early=true --out " + set).code, 0);
+  ASSERT_EQ(runMinimanip(kMock + " --trials 2 --set grasp.payload_compensation=false --out " + set).code, 0);
   const std::string saved = (d.path() / "saved.json").string();
   ASSERT_EQ(runMinimanip("gate " + base + " --save-baseline " + saved).code, 0);
   json b = json::parse(std::ifstream(saved));
-  ASSERT_TRUE(b.at("config").contains("grasp.close_early"));
-  b.at("config").erase("grasp.close_early");
+  ASSERT_TRUE(b.at("config").contains("grasp.payload_compensation"));
+  b.at("config").erase("grasp.payload_compensation");
   const std::string old = d.file("old.json", b.dump());
   const std::string good = d.file("good.yaml", "min_trials: 1\n");
   RunResult r = runMinimanip("gate " + base + " --thresholds " + good + " --baseline " + old);
   EXPECT_EQ(r.code, 0) << r.out;
   r = runMinimanip("gate " + set + " --thresholds " + good + " --baseline " + old);
   EXPECT_EQ(r.code, 2) << r.out;
-  EXPECT_THAT(r.out, ::testing::HasSubstr("grasp.close_early"));
+  EXPECT_THAT(r.out, ::testing::HasSubstr("grasp.payload_compensation"));
 }
 
 }  // namespace
