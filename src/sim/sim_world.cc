@@ -15,6 +15,7 @@
 #include <stdexcept>
 
 #include "core/error.h"
+#include "sim/midphase.h"
 #include "sim/mjcf_check.h"
 #include "sim/scene_compose.h"
 
@@ -43,6 +44,7 @@ void installMujocoHandlers() {
     mju_user_error = onMujocoError;
     mju_user_warning = onMujocoWarning;
   });
+  installMidphase();
 }
 
 namespace {
@@ -95,7 +97,16 @@ struct SimWorld::Impl {
   std::vector<double>* ctrl_log = nullptr;
   int substeps = 1;  ///< physics steps per control period
   bool velocity_product = true;  ///< PhysicsOptions::velocity_product
+  bool midphase = true;          ///< PhysicsOptions::midphase
+  bool sleep = true;             ///< PhysicsOptions::sleep
+  std::vector<char> asleep;      ///< per object
+  std::vector<int> still;        ///< per object: consecutive steps at rest
+  std::vector<char> moving;      ///< per object, this step: awake and faster than the rest thresholds
+  std::vector<char> supported;   ///< per object, this step: resting on the static world only
+  std::vector<int> saved_contype, saved_conaffinity;  ///< per object: its geom's, while asleep
+  std::vector<int> mover_geoms;  ///< the robot's geoms and the obstacles' (always movers)
   std::vector<mjtNum> cacc_vp;   ///< per body, the com-based acceleration at qacc = 0 (6 x nbody)
+  std::vector<char> vp_needed;   ///< per body: in a contact, or an ancestor of one that is
   mjOption scene_option;  ///< the scene's own numerics, before any PhysicsOptions
 
   ~Impl() {
@@ -124,7 +135,15 @@ struct SimWorld::Impl {
     if (!velocity_product || d->ncon == 0) return;
     const int nb = m->nbody;
     cacc_vp.assign(6 * static_cast<size_t>(nb), 0.0);
+    vp_needed.assign(static_cast<size_t>(nb), 0);  // the bodies in a contact and their ancestors
+    for (int i = 0; i < d->ncon; ++i) {
+      const mjContact& c = d->contact[i];
+      if (c.exclude || c.efc_address < 0) continue;
+      for (int b : {m->geom_bodyid[c.geom1], m->geom_bodyid[c.geom2]})
+        for (; b > 0 && !vp_needed[static_cast<size_t>(b)]; b = m->body_parentid[b]) vp_needed[static_cast<size_t>(b)] = 1;
+    }
     for (int b = 1; b < nb; ++b) {  // as mj_rne with qacc = 0 and no gravity: parents come first
+      if (!vp_needed[static_cast<size_t>(b)]) continue;
       mjtNum* a = cacc_vp.data() + 6 * b;
       const mjtNum* ap = cacc_vp.data() + 6 * m->body_parentid[b];
       for (int k = 0; k < 6; ++k) a[k] = ap[k];
@@ -175,8 +194,107 @@ struct SimWorld::Impl {
     }
   }
 
+  // ---- sleeping ----
+  // An object sleeps after kSleepSteps steps slower than 0.5 mm/s and 5 mrad/s, resting on the
+  // static world alone, with nothing moving within 2 cm of its bounding sphere: its geom leaves collision (contype, conaffinity 0), its
+  // weight is held by an applied force and its velocity kept at zero, so the model solves none of
+  // its contacts. It wakes, everything restored, as soon as something moving comes that near:
+  // the robot, an obstacle, or an object moving faster than those thresholds. Objects at rest
+  // together fall asleep together; waking spreads through the same test.
+  static constexpr int kSleepSteps = 50;  // 0.1 s at 2 ms
+  static constexpr double kSleepGap = 0.02;  // [m]
+
+  void initSleep() {
+    const size_t n = obj_body.size();
+    asleep.assign(n, 0);
+    still.assign(n, 0);
+    saved_contype.assign(n, 0);
+    saved_conaffinity.assign(n, 0);
+    mover_geoms.clear();
+    for (int g = 0; g < m->ngeom; ++g)
+      if (robot_geom[g] || foreign_geom[g]) mover_geoms.push_back(g);
+  }
+  void wake(size_t i) {
+    if (i >= asleep.size() || !asleep[i]) return;
+    const int g = obj_geom[i], b = obj_body[i];
+    m->geom_contype[g] = saved_contype[i];
+    m->geom_conaffinity[g] = saved_conaffinity[i];
+    std::fill(d->xfrc_applied + 6 * b, d->xfrc_applied + 6 * b + 6, 0.0);
+    asleep[i] = 0;
+    still[i] = 0;
+  }
+  void wakeAll() {
+    for (size_t i = 0; i < asleep.size(); ++i) wake(i);
+    std::fill(still.begin(), still.end(), 0);
+  }
+  bool moverNear(size_t i) const {
+    const int g = obj_geom[i];
+    const mjtNum* p = d->geom_xpos + 3 * g;
+    auto near = [&](int h) {
+      const mjtNum* q = d->geom_xpos + 3 * h;
+      const mjtNum dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
+      const mjtNum r = m->geom_rbound[g] + m->geom_rbound[h] + kSleepGap;
+      return dx * dx + dy * dy + dz * dz < r * r;
+    };
+    for (int h : mover_geoms)
+      if (m->geom_type[h] != mjGEOM_PLANE && near(h)) return true;
+    for (size_t j = 0; j < obj_geom.size(); ++j)
+      if (j != i && moving[j] && near(obj_geom[j])) return true;
+    return false;
+  }
+  void updateSleep() {
+    if (!sleep) return;
+    const size_t n = obj_body.size();
+    moving.assign(n, 0);
+    for (size_t i = 0; i < n; ++i) {
+      const mjtNum* v = d->qvel + obj_dof[i];
+      moving[i] = !asleep[i] && (v[0] * v[0] + v[1] * v[1] + v[2] * v[2] >= 0.5e-3 * 0.5e-3 ||
+                                 v[3] * v[3] + v[4] * v[4] + v[5] * v[5] >= 5e-3 * 5e-3);
+    }
+    // Waking spreads at once: an object just woken counts as moving for its sleeping neighbours
+    // (one resting against it may be pushed next).
+    for (bool woke = true; woke;) {
+      woke = false;
+      for (size_t i = 0; i < n; ++i)
+        if (asleep[i] && moverNear(i)) wake(i), moving[i] = 1, woke = true;
+    }
+    // Only an object resting on the static world sleeps: every contact with a static geom, its
+    // normal within 25 degrees of vertical. One leaning on another object or against a wall is
+    // held by friction, and MuJoCo's soft contacts let it creep on: freezing it there changed
+    // dense bins (measured: 477 of 500 cubes placed against 490).
+    supported.assign(n, 1);
+    for (int c = 0; c < d->ncon; ++c) {
+      const mjContact& con = d->contact[c];
+      for (int side = 0; side < 2; ++side) {
+        const int g = side ? con.geom2 : con.geom1, other = side ? con.geom1 : con.geom2;
+        const int i = geom_object[g];
+        if (i < 0) continue;
+        const int b = m->geom_bodyid[other];
+        const bool on_static = m->body_weldid[b] == 0 && m->body_mocapid[b] < 0;
+        if (!on_static || std::abs(con.frame[2]) < 0.906) supported[static_cast<size_t>(i)] = 0;
+      }
+    }
+    for (size_t i = 0; i < n; ++i) {
+      if (asleep[i]) std::fill(d->qvel + obj_dof[i], d->qvel + obj_dof[i] + 6, 0.0);
+      else still[i] = !moving[i] && supported[i] && !moverNear(i) ? still[i] + 1 : 0;
+    }
+    for (size_t i = 0; i < n; ++i)
+      if (!asleep[i] && still[i] >= kSleepSteps) putToSleep(i);
+  }
+  void putToSleep(size_t i) {
+    const int g = obj_geom[i], b = obj_body[i];
+    saved_contype[i] = m->geom_contype[g];
+    saved_conaffinity[i] = m->geom_conaffinity[g];
+    m->geom_contype[g] = m->geom_conaffinity[g] = 0;
+    std::fill(d->qvel + obj_dof[i], d->qvel + obj_dof[i] + 6, 0.0);
+    for (int k = 0; k < 3; ++k) d->xfrc_applied[6 * b + k] = -m->body_mass[b] * m->opt.gravity[k];
+    asleep[i] = 1;
+  }
+
   /// One physics step: mj_step as MuJoCo's split step, the velocity-product term in between.
   void physicsStep() {
+    setMidphase(midphase);
+    updateSleep();
     mj_step1(m, d);
     addVelocityProduct();
     mj_step2(m, d);
@@ -286,6 +404,13 @@ void PhysicsOptions::declare(ConfigArchive& a) {
   a.value("velocity_product", velocity_product,
           "add to each contact's reference acceleration the velocity-product term (J'q') MuJoCo 2.2 leaves out, "
           "so that friction holds an object on a swinging arm instead of letting it creep along the pads");
+  a.value("midphase", midphase,
+          "skip the narrow-phase tests of pairs with a box that a cheap bound proves apart (the box against the other's "
+          "bounding sphere, two boxes' separating axes): the same contacts, fewer tests (MuJoCo 2.2 has no mid-phase)");
+  a.value("sleep", sleep,
+          "objects at rest on the static world alone (under 0.5 mm/s and 5 mrad/s for 0.1 s, their contacts with static geoms "
+          "within 25 degrees of vertical) with nothing moving within 2 cm sleep: out of collision, held still, until the robot, "
+          "an obstacle or a moving object comes that near (MuJoCo 2.2 has no sleeping)");
 }
 
 void SimWorld::applyPhysics(Impl& I, const PhysicsOptions& p, const std::string& file) {
@@ -305,6 +430,9 @@ void SimWorld::applyPhysics(Impl& I, const PhysicsOptions& p, const std::string&
   if (p.tolerance >= 0) o.tolerance = p.tolerance;
   if (p.noslip_iterations >= 0) o.noslip_iterations = p.noslip_iterations;
   I.velocity_product = p.velocity_product;
+  I.midphase = p.midphase;
+  if (I.sleep && !p.sleep) I.wakeAll();
+  I.sleep = p.sleep;
   const double n = kControlPeriod / o.timestep;
   if (!(o.timestep > 0) || std::abs(n - std::round(n)) > 1e-9 * n) {
     char buf[160];
@@ -441,6 +569,7 @@ std::unique_ptr<SimWorld::Impl> SimWorld::compile(const Shared& S, const std::ve
   }
   I.geom_object.assign(m->ngeom, -1);
   for (size_t i = 0; i < I.obj_geom.size(); ++i) I.geom_object[I.obj_geom[i]] = static_cast<int>(i);
+  I.initSleep();
   I.geom_label.assign(m->ngeom, kSegmentScene);
   for (int g = 0; g < m->ngeom; ++g) {
     if (I.robot_geom[g]) I.geom_label[g] = kSegmentRobot;
@@ -478,6 +607,7 @@ void SimWorld::reset(const VecX& q_arm) {
   Impl& I = *impl_;
   I.stiff = false;
   I.payload_mass = 0;
+  I.wakeAll();
   mj_resetData(I.m, I.d);
   for (int i = 0; i < numObjects(); ++i) parkObject(i);
   for (size_t k = 0; k < I.obj_weld.size(); ++k)
@@ -562,6 +692,7 @@ Vec3 SimWorld::objectVelocity(int i) const {
 }
 
 void SimWorld::setObjectPose(int i, const Pose& T) {
+  impl_->wake(static_cast<size_t>(i));
   mjtNum* q = impl_->d->qpos + impl_->obj_qpos[i];
   const Quat r(T.linear());
   q[0] = T.translation().x(), q[1] = T.translation().y(), q[2] = T.translation().z();
@@ -654,6 +785,8 @@ void SimWorld::stepServo(const VecX& q, const VecX& qd, const VecX& qdd, double 
   Impl& I = *impl_;
   mjModel* m = I.m;
   mjData* d = I.d;
+  setMidphase(I.midphase);
+  I.updateSleep();
   mj_step1(m, d);  // positions, velocities, inertia and bias forces at the current state
   // Computed torque: tau = M (qdd + kp e + kd edot) + bias - passive (joint damping), arm rows.
   std::fill(I.scratch_a.begin(), I.scratch_a.end(), 0.0);
@@ -729,18 +862,27 @@ void SimWorld::recordControls(std::vector<double>* log) { shared_->ctrl_log = im
 
 SimWorld::State SimWorld::saveState() const {
   const Impl& I = *impl_;
-  return {std::vector<double>(I.d->qpos, I.d->qpos + I.m->nq), std::vector<double>(I.d->qvel, I.d->qvel + I.m->nv), I.d->time};
+  return {std::vector<double>(I.d->qpos, I.d->qpos + I.m->nq), std::vector<double>(I.d->qvel, I.d->qvel + I.m->nv), I.d->time,
+          I.asleep, I.still};
 }
 
 void SimWorld::restoreState(const State& s) {
   Impl& I = *impl_;
+  I.wakeAll();
   std::copy(s.qpos.begin(), s.qpos.end(), I.d->qpos);
   std::copy(s.qvel.begin(), s.qvel.end(), I.d->qvel);
   I.d->time = s.time;
+  if (s.asleep.size() == I.asleep.size()) {
+    for (size_t i = 0; i < I.asleep.size(); ++i)
+      if (s.asleep[i]) I.putToSleep(i);
+    I.still = s.still;
+  }
   mj_forward(I.m, I.d);
 }
 
 int SimWorld::controlsPerStep() const { return impl_->m->nu; }
+
+bool SimWorld::objectAsleep(int i) const { return impl_->asleep.at(static_cast<size_t>(i)) != 0; }
 
 double SimWorld::replayControls(const std::vector<double>& log, ReplayCounts* counts) {
   Impl& I = *impl_;
@@ -754,6 +896,8 @@ double SimWorld::replayControls(const std::vector<double>& log, ReplayCounts* co
       counts->rows += I.d->nefc;
       counts->iterations += I.d->solver_iter;
       counts->dof += I.m->nv;
+      counts->objects += static_cast<long>(I.asleep.size());
+      counts->asleep += std::count(I.asleep.begin(), I.asleep.end(), 1);
     }
   }
   return I.d->time - t0;
@@ -763,6 +907,7 @@ void SimWorld::updateKinematics() { mj_kinematics(impl_->m, impl_->d); }
 
 void SimWorld::setWeld(int i, bool on) {
   Impl& I = *impl_;
+  I.wake(static_cast<size_t>(i));
   const int eq = I.obj_weld[i];
   if (eq < 0) return;
   if (on) {

@@ -57,6 +57,18 @@ struct PhysicsOptions {
   /// Adds to every contact's reference acceleration the velocity-product term J'q' that MuJoCo 2.2's
   /// constraints leave out, so that static friction holds an object on a swinging arm.
   bool velocity_product = true;
+  /// Skips narrow-phase tests a cheap bound proves empty (sim/midphase.h): the same contacts.
+  bool midphase = true;
+  /// Objects at rest on the static world, away from anything moving, sleep (held still, out of
+  /// collision) until something moving comes near (as physics engines put resting bodies to sleep).
+  bool sleep = true;
+  /// Today's scene as the issue measured it: the scene's numerics with none of the additions
+  /// above (the bench's baseline).
+  static PhysicsOptions sceneAsIs() {
+    PhysicsOptions p;
+    p.velocity_product = p.midphase = p.sleep = false;
+    return p;
+  }
 };
 
 /// [s] The servo's control period (500 Hz), whatever the physics timestep.
@@ -148,6 +160,8 @@ class SimWorld {
   struct State {
     std::vector<double> qpos, qvel;
     double time = 0;
+    std::vector<char> asleep;  ///< per object (PhysicsOptions::sleep)
+    std::vector<int> still;    ///< per object: steps at rest so far
   };
   State saveState() const;
   void restoreState(const State& s);
@@ -155,10 +169,13 @@ class SimWorld {
   struct ReplayCounts {
     long steps = 0, contacts = 0, rows = 0, iterations = 0;  ///< contacts, constraint rows, solver iterations
     long dof = 0;  ///< the models' degrees of freedom, summed over the steps
+    long objects = 0, asleep = 0;  ///< objects in the model, and of them asleep, summed over the steps
   };
   /// Steps once per recorded control vector (one per physics step); returns the simulated seconds
   /// covered, and adds to `counts` when given.
   double replayControls(const std::vector<double>& log, ReplayCounts* counts = nullptr);
+  /// Object i is asleep (PhysicsOptions::sleep): at rest, out of collision, until something moves near.
+  bool objectAsleep(int i) const;
   /// Controls per step in a recorded log (the model's actuators: arm joints and fingers).
   int controlsPerStep() const;
 

@@ -1,5 +1,7 @@
-// The simulator's monitors and the two hardware backends.
+// The simulator's monitors, the two hardware backends, and the mid-phase and sleeping.
 #include "sim/sim_world.h"
+
+#include <mujoco/mujoco.h>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -11,6 +13,8 @@
 #include "sim/hardware.h"
 #include "core/error.h"
 #include "sim/scene_compose.h"
+#include "sim/midphase.h"
+#include "core/rng.h"
 
 #include <filesystem>
 #include <fstream>
@@ -182,6 +186,106 @@ TEST(SimWorld, ExportsTheStaticSceneForThePlanner) {
   for (const auto& o : obstacles) names.push_back(o.name);
   EXPECT_THAT(names, ::testing::IsSupersetOf({"table", "bin_floor", "bin_wall_xp", "tray_floor", "tray_wall_yn"}));
   EXPECT_THAT(names, ::testing::Not(::testing::Contains("floor")));  // the ground plane is out of reach
+}
+
+// ---- what makes the physics fast must not change it (issue 13) ------------------------------
+// The mid-phase finds exactly MuJoCo's contacts; a sleeping object wakes before anything moving
+// reaches it, and only objects resting on the world sleep.
+
+struct Contact {
+  int g1, g2;
+  double dist;
+};
+
+std::vector<Contact> contacts(SimWorld& w, bool midphase) {
+  const mjModel* m = w.mujocoModel();
+  mjData* d = w.mujocoData();
+  setMidphase(midphase);
+  mj_fwdPosition(m, d);
+  std::vector<Contact> out;
+  for (int i = 0; i < d->ncon; ++i) out.push_back({d->contact[i].geom1, d->contact[i].geom2, d->contact[i].dist});
+  return out;
+}
+
+TEST(Midphase, FindsExactlyMuJoCosContacts) {
+  installMujocoHandlers();
+  auto w = SimWorld::load("scenes/bin_table.xml", panda(), cubes(3));
+  Rng rng(7);
+  int with_contacts = 0, total = 0;
+  for (int n = 0; n < 400; ++n) {
+    VecX q(7);
+    for (int j = 0; j < 7; ++j) q[j] = rng.uniform(panda().lower()[j], panda().upper()[j]);
+    w->setArm(q);
+    w->setFingers(rng.uniform(0.0, 0.04));
+    // Cubes near the hand, on the bin floor, against its walls, on one another, turned anyhow.
+    const Vec3 tcp = panda().fk(q).translation();
+    for (int i = 0; i < 3; ++i) {
+      Vec3 p;
+      switch (n % 4) {
+        case 0: p = tcp + Vec3(rng.uniform(-0.06, 0.06), rng.uniform(-0.06, 0.06), rng.uniform(-0.06, 0.06)); break;
+        case 1: p = Vec3(rng.uniform(0.33, 0.67), rng.uniform(-0.42, -0.08), rng.uniform(0.02, 0.05)); break;
+        case 2: p = Vec3(rng.uniform(0.43, 0.47), rng.uniform(-0.27, -0.23), 0.035 + 0.049 * i); break;
+        default: p = Vec3(rng.uniform(-0.2, 1.0), rng.uniform(-0.7, 0.7), rng.uniform(-0.03, 0.5)); break;
+      }
+      const Quat r(Eigen::AngleAxisd(rng.uniform(0, 2 * M_PI), Vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), 1).normalized()));
+      w->setObjectPose(i, makePose(p, r));
+    }
+    const auto plain = contacts(*w, false), fast = contacts(*w, true);
+    ASSERT_EQ(plain.size(), fast.size()) << "sample " << n;
+    for (size_t k = 0; k < plain.size(); ++k) {
+      EXPECT_EQ(plain[k].g1, fast[k].g1);
+      EXPECT_EQ(plain[k].g2, fast[k].g2);
+      EXPECT_NEAR(plain[k].dist, fast[k].dist, 1e-12) << plain[k].dist - fast[k].dist;
+    }
+    with_contacts += !plain.empty();
+    total += static_cast<int>(plain.size());
+  }
+  EXPECT_GT(with_contacts, 150) << "the samples meet things";
+  EXPECT_GT(total, 1000);
+}
+
+TEST(Sleeping, AnObjectAtRestSleepsAndWakesBeforeAFallingOneReachesIt) {
+  auto w = SimWorld::load("scenes/bin_table.xml", panda(), cubes(2));
+  w->setObjectPose(0, makePose(Vec3(0.5, -0.25, 0.036), Quat::Identity()));
+  w->setObjectPose(1, makePose(Vec3(0.6, -0.3, 0.036), Quat::Identity()));
+  const VecX zero = VecX::Zero(7);
+  auto hold = [&](double seconds) {
+    for (int k = 0; k < static_cast<int>(seconds / kControlPeriod); ++k)
+      w->stepServo(panda().home(), zero, zero, 0.04, 40);
+  };
+  hold(0.5);
+  ASSERT_TRUE(w->objectAsleep(0));
+  ASSERT_TRUE(w->objectAsleep(1));
+  const Vec3 rest = w->object(0).T_world_object.translation();
+  // Cube 1 dropped from 4 cm above cube 0: it must land on it, not fall through.
+  w->setObjectPose(1, makePose(rest + Vec3(0, 0, 0.09), Quat::Identity()));
+  EXPECT_FALSE(w->objectAsleep(1)) << "moved by hand: awake";
+  bool woke = false;
+  for (int k = 0; k < 200; ++k) {
+    w->stepServo(panda().home(), zero, zero, 0.04, 40);
+    woke = woke || !w->objectAsleep(0);
+  }
+  EXPECT_TRUE(woke);
+  const Vec3 top = w->object(1).T_world_object.translation();
+  EXPECT_NEAR(top.z(), rest.z() + 0.05, 0.002) << "resting on cube 0";
+  EXPECT_LT((w->object(0).T_world_object.translation() - rest).norm(), 0.002);
+  // Resting on another object is not resting on the world (friction holds a stack or a lean,
+  // and MuJoCo's soft contacts let it creep): the stack stays awake, and stays put.
+  hold(0.5);
+  EXPECT_FALSE(w->objectAsleep(0));
+  EXPECT_FALSE(w->objectAsleep(1));
+  EXPECT_NEAR(w->object(1).T_world_object.translation().z(), top.z(), 0.001);
+  // Moved onto the floor beside it, cube 1 comes to rest there, and both sleep.
+  w->setObjectPose(1, makePose(Vec3(0.6, -0.3, 0.036), Quat::Identity()));
+  hold(0.5);
+  EXPECT_TRUE(w->objectAsleep(0));
+  EXPECT_TRUE(w->objectAsleep(1));
+  // With sleeping off every object is awake.
+  PhysicsOptions off;
+  off.sleep = false;
+  w->setPhysics(off, "test");
+  EXPECT_FALSE(w->objectAsleep(0));
+  EXPECT_FALSE(w->objectAsleep(1));
 }
 
 }  // namespace
