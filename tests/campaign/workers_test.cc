@@ -147,7 +147,10 @@ TEST(Resume, KilledAtRandomMomentsThenResumedEqualsAnUninterruptedRun) {
   TempDir d;
   const std::string out = (d.path() / "out").string();
   const fs::path jsonl = fs::path(out) / "trials.jsonl";
-  const std::string args = kMock + " --trials 24 --jobs 2 --set bt.log=all --out " + out;
+  // Enough trials that every round lands mid-campaign: a mock trial of the quickstart takes about
+  // 20 ms with two workers (its 4 s cycle).
+  const int kTrials = 60;
+  const std::string args = kMock + " --trials " + std::to_string(kTrials) + " --jobs 2 --set bt.log=all --out " + out;
   std::mt19937 rng(2026);
   int supervisor_kills = 0, worker_kills = 0, mid_campaign = 0;
   std::string progress;
@@ -159,7 +162,7 @@ TEST(Resume, KilledAtRandomMomentsThenResumedEqualsAnUninterruptedRun) {
       for (int k = 0; k < 30000 && linesIn(jsonl) < target && waitpid(pid, nullptr, WNOHANG) == 0; ++k)
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(std::uniform_int_distribution<int>(0, 300)(rng)));
+    std::this_thread::sleep_for(std::chrono::milliseconds(std::uniform_int_distribution<int>(0, 100)(rng)));
     const std::vector<pid_t> workers = childrenOf(pid);
     if (!workers.empty() && rng() % 2 == 0) {
       kill(workers[rng() % workers.size()], SIGKILL);
@@ -170,16 +173,16 @@ TEST(Resume, KilledAtRandomMomentsThenResumedEqualsAnUninterruptedRun) {
     ++supervisor_kills;
     waitpid(pid, nullptr, 0);
     const long lines = linesIn(jsonl);
-    mid_campaign += lines > 0 && lines < 24;
+    mid_campaign += lines > 0 && lines < kTrials;
     progress += ' ';
     progress += std::to_string(lines);
   }
   EXPECT_GE(mid_campaign, 3) << "the kills should land while trials run; trials recorded after each:" << progress;
   const RunResult last = runMinimanip(args);
   ASSERT_EQ(last.code, 0) << last.out;
-  ASSERT_EQ(runMinimanip(kMock + " --trials 24 --jobs 2 --set bt.log=all --out " + (d.path() / "straight").string()).code, 0);
+  ASSERT_EQ(runMinimanip(kMock + " --trials " + std::to_string(kTrials) + " --jobs 2 --set bt.log=all --out " + (d.path() / "straight").string()).code, 0);
   const auto a = readTrials(out), b = readTrials(d.path() / "straight");
-  ASSERT_EQ(a.size(), 24u);
+  ASSERT_EQ(a.size(), static_cast<size_t>(kTrials));
   for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(outcomeFields(a[i]), outcomeFields(b[i])) << "trial " << i;
   // Every trial's tree log is there, complete, and nothing half-written is left.
   for (const json& t : a) EXPECT_TRUE(fs::exists(fs::path(out) / t["bt_log"].get<std::string>())) << t["bt_log"];
