@@ -1,5 +1,7 @@
 #include "bt/tree_node.h"
 
+#include <chrono>
+
 #include "bt/tree.h"
 
 namespace mm::bt {
@@ -70,13 +72,25 @@ void TreeNode::checkPostConditions(NodeStatus s) {
   if (config_.post[NodeConfig::kPost]) config_.post[NodeConfig::kPost]->run(env);
 }
 
+namespace {
+thread_local double t_leaf_seconds = 0;
+}  // namespace
+
+double leafTickSeconds() { return t_leaf_seconds; }
+
 NodeStatus TreeNode::executeTick() {
   NodeStatus result;
   if (const auto pre = checkPreConditions()) {
     result = *pre;
   } else {
     try {
-      result = tick();
+      if (kind() == NodeKind::kAction || kind() == NodeKind::kCondition) {
+        const auto t0 = std::chrono::steady_clock::now();
+        result = tick();
+        t_leaf_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      } else {
+        result = tick();
+      }
     } catch (const NodeError&) {
       throw;
     } catch (const std::exception& e) {

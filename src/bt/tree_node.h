@@ -21,6 +21,10 @@ namespace mm::bt {
 class Tree;
 
 enum class NodeKind { kAction, kCondition, kControl, kDecorator, kSubTree };
+
+/// [s] Wall time this thread has spent inside leaf nodes' tick() (actions and conditions: the
+/// node library's work and the built-in leaves), for the benchmark's split of a tick's cost.
+double leafTickSeconds();
 const char* toString(NodeKind k);  ///< "Action", "Condition", "Control", "Decorator", "SubTree"
 
 /// Everything a node gets when the tree is built.

@@ -31,9 +31,11 @@ TreeRunResult runTree(Tree& tree, TrialContext& ctx, const TreeRunOptions& o) {
     ticks_now = std::abs(t - last_tick_time) < kEps ? ticks_now + 1 : 1;
     last_tick_time = t;
     ++r.ticks;
+    const double leaf0 = leafTickSeconds();
     const auto t0 = std::chrono::steady_clock::now();
     r.status = tree.tickOnce(kMaxTicksAtOneInstant, [&] { ++r.ticks; });
     r.tick_wall_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    r.leaf_wall_seconds += leafTickSeconds() - leaf0;
   };
   try {
     tick();

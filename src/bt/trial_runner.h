@@ -24,6 +24,7 @@ struct TreeRunResult {
   bool timeout = false;
   long ticks = 0;                          ///< root ticks, re-ticks after a wake-up included
   double tick_wall_seconds = 0;            ///< wall time inside the ticks (the actions' planning included)
+  double leaf_wall_seconds = 0;            ///< of it, inside the leaf nodes (actions and conditions)
   std::string error;                       ///< a runtime error in the tree (a script, a port), if any
 };
 

@@ -108,6 +108,7 @@ TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial
   out.tree_status = r.timeout ? "TIMEOUT" : !r.error.empty() ? "ERROR" : bt::toString(r.status);
   out.ticks = r.ticks;
   cost_.tick_seconds += r.tick_wall_seconds;
+  cost_.leaf_seconds += r.leaf_wall_seconds;
   for (const StageRecord& s : out.stages) cost_.compute_seconds += s.compute_seconds;
   cost_.ticks += r.ticks;
   bt_log.clear();

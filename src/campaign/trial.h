@@ -41,6 +41,7 @@ Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& worl
 struct TreeCost {
   double tick_seconds = 0;     ///< inside ticks, the actions' planning and perception included
   double compute_seconds = 0;  ///< the actions' planning and perception (the stages' compute time)
+  double leaf_seconds = 0;     ///< inside the leaf nodes (actions and conditions), their planning included
   double log_seconds = 0;      ///< recording transitions is inside the ticks; this is writing .db3 files
   long ticks = 0, transitions = 0, logs = 0;
 };
