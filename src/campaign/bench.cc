@@ -105,6 +105,9 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
     world->setPhysics(e.physics, e.file);
   }
   std::filesystem::remove_all(logs);
+  if (trials == 0)  // every spawn failed (the settings make a bin no object can rest in): nothing to time
+    return "Harness benchmark\n  command:     " + command_line + "\n  no trial could be spawned in " +
+           std::to_string(e.trials) + " attempts: nothing measured\n";
   const double wall_total = secs(t_all, Clock::now());
   std::string cpu = "unknown";
   std::ifstream in("/proc/cpuinfo");

@@ -165,7 +165,7 @@ std::string meshCacheFile(const std::vector<Vec3>& vertices) {
 std::shared_ptr<const ConvexHull> meshHull(const std::string& path, const Vec3& scale) {
   static std::mutex mutex;
   static std::map<std::string, std::shared_ptr<const ConvexHull>> cache;
-  char key[64];
+  char key[96];  // "|" and three %.17g of up to 24 characters each
   std::snprintf(key, sizeof key, "|%.17g %.17g %.17g", scale.x(), scale.y(), scale.z());
   std::lock_guard<std::mutex> lock(mutex);
   auto& slot = cache[path + key];
