@@ -94,4 +94,16 @@ void installMidphase() {
 
 void setMidphase(bool on) { t_on = on; }
 
+double geomGapLowerBound(const mjModel* m, const mjData* d, int g1, int g2) {
+  const mjtNum* p1 = d->geom_xpos + 3 * g1;
+  const mjtNum* p2 = d->geom_xpos + 3 * g2;
+  const mjtNum dx = p1[0] - p2[0], dy = p1[1] - p2[1], dz = p1[2] - p2[2];
+  mjtNum gap = std::sqrt(dx * dx + dy * dy + dz * dz) - m->geom_rbound[g1] - m->geom_rbound[g2];
+  const bool box1 = m->geom_type[g1] == mjGEOM_BOX, box2 = m->geom_type[g2] == mjGEOM_BOX;
+  if (box1) gap = std::max(gap, pointToBox(m, d, g1, p2) - m->geom_rbound[g2]);
+  if (box2) gap = std::max(gap, pointToBox(m, d, g2, p1) - m->geom_rbound[g1]);
+  if (box1 && box2) gap = std::max(gap, boxBoxGap(m, d, g1, g2));
+  return gap;
+}
+
 }  // namespace mm

@@ -9,6 +9,9 @@
 // MuJoCo 3 added the same idea as its "midphase" (a BVH per body).
 #pragma once
 
+struct mjModel_;
+struct mjData_;
+
 namespace mm {
 
 /// Wraps MuJoCo's narrow-phase table (mjCOLLISIONFUNC) once per process.
@@ -16,5 +19,9 @@ void installMidphase();
 /// On this thread, whether the wrapped tests skip pairs (true) or only forward (false: MuJoCo as
 /// it is, the bench's baseline). Set by SimWorld before it steps its model.
 void setMidphase(bool on);
+/// [m] A lower bound on the distance between geoms g1 and g2 at the poses in d (negative when they
+/// may overlap): their bounding spheres' gap, a box's distance to the other's bounding sphere, and
+/// two boxes' largest gap along their separating axes, whichever is largest.
+double geomGapLowerBound(const mjModel_* m, const mjData_* d, int g1, int g2);
 
 }  // namespace mm

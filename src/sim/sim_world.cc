@@ -196,7 +196,8 @@ struct SimWorld::Impl {
 
   // ---- sleeping ----
   // An object sleeps after kSleepSteps steps slower than 0.5 mm/s and 5 mrad/s, resting on the
-  // static world alone, with nothing moving within 2 cm of its bounding sphere: its geom leaves collision (contype, conaffinity 0), its
+  // static world alone, with nothing moving within 2 cm of it (a lower bound on the distance between
+  // the shapes, sim/midphase.h): its geom leaves collision (contype, conaffinity 0), its
   // weight is held by an applied force and its velocity kept at zero, so the model solves none of
   // its contacts. It wakes, everything restored, as soon as something moving comes that near:
   // the robot, an obstacle, or an object moving faster than those thresholds. Objects at rest
@@ -230,11 +231,11 @@ struct SimWorld::Impl {
   bool moverNear(size_t i) const {
     const int g = obj_geom[i];
     const mjtNum* p = d->geom_xpos + 3 * g;
-    auto near = [&](int h) {
+    auto near = [&](int h) {  // bounding spheres first (cheap), then the shapes' gap bound
       const mjtNum* q = d->geom_xpos + 3 * h;
       const mjtNum dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
       const mjtNum r = m->geom_rbound[g] + m->geom_rbound[h] + kSleepGap;
-      return dx * dx + dy * dy + dz * dz < r * r;
+      return dx * dx + dy * dy + dz * dz < r * r && geomGapLowerBound(m, d, g, h) < kSleepGap;
     };
     for (int h : mover_geoms)
       if (m->geom_type[h] != mjGEOM_PLANE && near(h)) return true;

@@ -5,6 +5,8 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <fcl/fcl.h>
+#include <unistd.h>
 
 #include <cmath>
 
@@ -242,6 +244,64 @@ TEST(Midphase, FindsExactlyMuJoCosContacts) {
   }
   EXPECT_GT(with_contacts, 150) << "the samples meet things";
   EXPECT_GT(total, 1000);
+}
+
+// Sleeping wakes an object when something comes within 2 cm of it by a lower bound on the gap
+// between the shapes: it must never exceed their true distance (FCL's), or an object could sleep
+// on while something reaches it.
+TEST(Midphase, GapBoundNeverExceedsTheDistance) {
+  installMujocoHandlers();
+  const std::filesystem::path xml = std::filesystem::temp_directory_path() / ("mm_gap_" + std::to_string(getpid()) + ".xml");
+  std::ofstream(xml) << R"(<mujoco><worldbody>
+    <body><freejoint/><geom type="box" size="0.025 0.04 0.015"/></body>
+    <body><freejoint/><geom type="box" size="0.0105 0.009 0.027"/></body>
+    <body><freejoint/><geom type="capsule" size="0.03 0.06"/></body>
+    <body><freejoint/><geom type="sphere" size="0.02"/></body>
+  </worldbody></mujoco>)";
+  char error[500] = "";
+  mjModel* m = mj_loadXML(xml.c_str(), nullptr, error, sizeof error);
+  std::filesystem::remove(xml);
+  ASSERT_NE(m, nullptr) << error;
+  mjData* d = mj_makeData(m);
+  auto shape = [&](int g) -> std::shared_ptr<fcl::CollisionGeometryd> {
+    const mjtNum* s = m->geom_size + 3 * g;
+    if (m->geom_type[g] == mjGEOM_BOX) return std::make_shared<fcl::Boxd>(2 * s[0], 2 * s[1], 2 * s[2]);
+    if (m->geom_type[g] == mjGEOM_CAPSULE) return std::make_shared<fcl::Capsuled>(s[0], 2 * s[1]);
+    return std::make_shared<fcl::Sphered>(s[0]);
+  };
+  auto pose = [&](int g) {
+    fcl::Transform3d T = fcl::Transform3d::Identity();
+    for (int r = 0; r < 3; ++r) {
+      T.translation()[r] = d->geom_xpos[3 * g + r];
+      for (int c = 0; c < 3; ++c) T.linear()(r, c) = d->geom_xmat[9 * g + 3 * r + c];
+    }
+    return T;
+  };
+  Rng rng(11);
+  int pairs = 0, tight = 0;
+  for (int n = 0; n < 3000; ++n) {
+    for (int b = 0; b < 4; ++b) {  // every body within 15 cm of the origin, turned anyhow
+      mjtNum* q = d->qpos + 7 * b;
+      for (int k = 0; k < 3; ++k) q[k] = rng.uniform(-0.075, 0.075);
+      const Quat r(Eigen::AngleAxisd(rng.uniform(0, 2 * M_PI), Vec3(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1)).normalized()));
+      q[3] = r.w(), q[4] = r.x(), q[5] = r.y(), q[6] = r.z();
+    }
+    mj_kinematics(m, d);
+    for (int g1 = 0; g1 < 2; ++g1)  // a box against each other shape
+      for (int g2 = g1 + 1; g2 < 4; ++g2) {
+        fcl::DistanceRequestd req;
+        fcl::DistanceResultd res;
+        fcl::distance(shape(g1).get(), pose(g1), shape(g2).get(), pose(g2), req, res);
+        const double bound = geomGapLowerBound(m, d, g1, g2);
+        const double dist = std::max(0.0, res.min_distance);  // FCL: <= 0 when they overlap
+        ASSERT_LE(bound, dist + 1e-9) << "sample " << n << ", geoms " << g1 << " and " << g2;
+        ++pairs;
+        tight += dist > 0 && bound > dist - 0.01;
+      }
+  }
+  EXPECT_GT(tight, pairs / 4) << "the bound is within 1 cm of the distance often enough to matter";
+  mj_deleteData(d);
+  mj_deleteModel(m);
 }
 
 TEST(Sleeping, AnObjectAtRestSleepsAndWakesBeforeAFallingOneReachesIt) {
