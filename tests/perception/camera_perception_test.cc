@@ -126,7 +126,7 @@ TEST(CameraPerception, PoseErrorRespectsTheBoxSymmetries) {
   const Vec3 cube(0.025, 0.025, 0.025), slab(0.04, 0.025, 0.01);
   const Pose T = makePose(Vec3(0.5, 0.1, 0.03), rotZ(0.3));
   // A cube turned 90 degrees about any axis is the same cube.
-  for (const Vec3& axis : {Vec3::UnitX(), Vec3::UnitY(), Vec3::UnitZ()}) {
+  for (const Vec3 axis : {Vec3::UnitX(), Vec3::UnitY(), Vec3::UnitZ()}) {
     const Pose turned = T * makePose(Vec3::Zero(), Mat3(Eigen::AngleAxisd(M_PI / 2, axis)));
     const PoseError e = poseError(turned, T, cube);
     EXPECT_NEAR(e.rotation, 0, 1e-9);

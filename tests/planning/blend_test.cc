@@ -57,7 +57,9 @@ TEST(Blend, OverlapsWithinTheLimitsAndTheRadiusAndLeavesTheRestAlone) {
     for (int j = 0; j < r.dof(); ++j) {
       ASSERT_LE(std::abs(whole.qd(j, i)), r.vmax()[j] * (1 + 1e-6)) << "joint " << j << " sample " << i;
       ASSERT_LE(std::abs(whole.qdd(j, i)), r.amax()[j] * (1 + 1e-6)) << "joint " << j << " sample " << i;
-      if (i > 0) ASSERT_LE(std::abs(whole.q(j, i) - whole.q(j, i - 1)), r.vmax()[j] * 0.002 * 1.01);
+      if (i > 0) {
+        ASSERT_LE(std::abs(whole.q(j, i) - whole.q(j, i - 1)), r.vmax()[j] * 0.002 * 1.01);
+      }
     }
   }
   for (int i = 0; i <= k; ++i) EXPECT_LE((r.fk(m.b.q.col(i)).translation() - p_junction).norm(), 0.02 + 1e-9);

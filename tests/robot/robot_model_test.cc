@@ -35,7 +35,7 @@ VecX randomConfig(const RobotModel& m, Rng& rng) {
 
 class EveryRobot : public ::testing::TestWithParam<std::string> {};
 INSTANTIATE_TEST_SUITE_P(RobotDescription, EveryRobot, ::testing::Values("robots/panda/panda.yaml", "robots/ur5e/ur5e.yaml"),
-                         [](const auto& info) { return std::filesystem::path(info.param).stem().string(); });
+                         [](const auto& p) { return std::filesystem::path(p.param).stem().string(); });
 
 TEST_P(EveryRobot, CommittedFilesMatchTheGenerator) {
   const RobotSpec spec = loadRobotSpec(GetParam());
@@ -295,7 +295,7 @@ namespace {
 
 class PandaFrom : public ::testing::TestWithParam<std::string> {};
 INSTANTIATE_TEST_SUITE_P(RobotFromFile, PandaFrom, ::testing::Values("robots/panda/panda.urdf", "robots/panda/panda.xml"),
-                         [](const auto& info) { return std::filesystem::path(info.param).extension().string().substr(1); });
+                         [](const auto& p) { return std::filesystem::path(p.param).extension().string().substr(1); });
 
 // The Panda from its URDF (panda.urdf + panda.urdf.yaml) or its MJCF (panda.xml + panda.xml.yaml)
 // is the Panda from its YAML: the same chain, limits, home and analytic IK; FK equal within 1e-9
