@@ -513,10 +513,16 @@ class IsSystemHealthy final : public TaskCondition {
 class IsBinNotEmpty final : public TaskCondition {
  public:
   using TaskCondition::TaskCondition;
-  static PortsList providedPorts() { return {}; }
+  static PortsList providedPorts() {
+    return {inputPort<bool>("count_held", "true",
+                            "the object in the hand counts (taken from the bin and not yet placed); false: the bin's sensor alone")};
+  }
 
  protected:
-  NodeStatus tick() override { return objectsInBin(ctx()) > 0 ? NodeStatus::kSuccess : NodeStatus::kFailure; }
+  NodeStatus tick() override {
+    const bool held = ctx().held >= 0 && getInput<bool>("count_held").value();
+    return held || objectsInBin(ctx()) > 0 ? NodeStatus::kSuccess : NodeStatus::kFailure;
+  }
 };
 
 class IsGraspable final : public TaskCondition {
@@ -577,8 +583,10 @@ void registerTaskNodes(Factory& f, TaskNodeEnv& env) {
                        "SUCCESS while the simulation is stable, no collision event has happened and every joint is within "
                        "max_tracking_error of its command.");
   add<IsBinNotEmpty>(f, env, "IsBinNotEmpty",
-                     "SUCCESS while an object rests in the bin as the bin's sensor sees it (over the bin floor, less than 10 cm "
-                     "above it); the object in the hand does not count, nor one lifted out.");
+                     "SUCCESS while objects remain to be cleared from the bin: one rests in it as the bin's sensor sees it "
+                     "(over the bin floor, less than 10 cm above it) or, with count_held, the gripper holds one (taken out "
+                     "and not yet let go of), so that lifting the last object out does not fail a condition guarding its "
+                     "pick. With count_held false, the bin's sensor alone.");
   add<IsGraspable>(f, env, "IsGraspable",
                    "SUCCESS when the detected object at object_pose has a grasp that passes every check now (IK, collision, "
                    "approach, lift); FAILURE otherwise (flush against a neighbour or a wall: PushObject it).");

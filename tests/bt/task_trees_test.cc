@@ -9,6 +9,8 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 
 #include "bt/manip_nodes.h"
 #include "campaign/trial.h"
@@ -121,13 +123,32 @@ TEST(SourceTrees, BinPickingAsWrittenPicksOnceAndHaltsTheLastCube) {
   EXPECT_EQ(placed(two.out), 1);
   EXPECT_EQ(two.out.objects_left_in_bin, 1);
   EXPECT_EQ(two.out.reported_total, -1);
-  // One cube: lifting it empties the bin, the condition (ticked every tick) fails, the pick is
-  // halted with the cube in the hand and the else branch runs.
+  // One cube: the condition is ticked on every tick. IsBinNotEmpty counts the cube in the hand, so
+  // the pick and the place go on; once the fingers let go of it the condition fails and the rest
+  // of the iteration is halted: no retreat (MoveToSafe), no IncrementCounter; the else branch goes
+  // home and reports 0 objects with the one cube placed.
   const Result one = runTree("bin_picking.xml", withCubes(kMock, 1), 0);
-  EXPECT_FALSE(one.out.success) << describe(one.out);
-  EXPECT_THAT(one.out.failures, ::testing::Contains(::testing::Field(
-                                   &RecordedFailure::failure, ::testing::Field(&Failure::kind, FailureKind::kHalted))));
-  EXPECT_EQ(placed(one.out), 0);
+  EXPECT_TRUE(one.out.success) << describe(one.out);
+  EXPECT_EQ(placed(one.out), 1);
+  EXPECT_EQ(one.out.objects_left_in_bin, 0);
+  EXPECT_EQ(one.out.reported_total, 0);
+  const auto stage = [&](const std::string& name) {
+    return std::any_of(one.out.stages.begin(), one.out.stages.end(), [&](const StageRecord& s) { return s.name == name; });
+  };
+  EXPECT_FALSE(stage("plan_safe"));
+  EXPECT_TRUE(stage("return_home"));
+  // With the bin's sensor alone (count_held="false"), lifting the one cube empties the bin: the
+  // pick is halted with the cube in the hand and the trial fails.
+  std::ifstream in("experiments/trees/bin_picking.xml");
+  std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string plain = "<IsBinNotEmpty/>";
+  ASSERT_NE(xml.find(plain), std::string::npos);
+  xml.replace(xml.find(plain), plain.size(), R"(<IsBinNotEmpty count_held="false"/>)");
+  const Result sensor = runTree(xml, withCubes(kMock, 1), 0);
+  EXPECT_FALSE(sensor.out.success) << describe(sensor.out);
+  EXPECT_THAT(sensor.out.failures, ::testing::Contains(::testing::Field(
+                                      &RecordedFailure::failure, ::testing::Field(&Failure::kind, FailureKind::kHalted))));
+  EXPECT_EQ(placed(sensor.out), 0);
 }
 
 TEST(SourceTrees, BinPickingCorrectedClearsTheBinOnMockAndMujoco) {
