@@ -2,10 +2,14 @@
 
 #include <sqlite3.h>
 
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
+#include <memory>
 #include <stdexcept>
 #include <vector>
 
@@ -77,62 +81,120 @@ const std::vector<unsigned char>& emptyLogImage() {
   return image;
 }
 
+// Each thread's log writer: one in-memory connection and its prepared statements, kept from log to
+// log (each log starts from a fresh copy of the empty image, deserialized into the connection).
+// Against opening a connection and preparing the statements for every log, this halves SQLite's
+// share of writing a log between two trials' physics (cold caches).
+struct Writer {
+  Db d;
+  sqlite3_stmt* begin = nullptr;
+  sqlite3_stmt* commit = nullptr;
+  sqlite3_stmt* definition = nullptr;
+  sqlite3_stmt* node = nullptr;
+  sqlite3_stmt* transition = nullptr;
+
+  Writer() {
+    if (sqlite3_open(":memory:", &d.db) != SQLITE_OK) throw std::runtime_error("sqlite: cannot open an in-memory database");
+    fresh();
+    begin = prepare("BEGIN TRANSACTION;");
+    commit = prepare("COMMIT;");
+    definition = prepare("INSERT into Definitions (date, xml_tree) VALUES (?, ?);");
+    node = prepare("INSERT INTO Nodes VALUES (?, ?, ?);");
+    transition = prepare("INSERT INTO Transitions VALUES (?, ?, ?, ?, ?, ?);");
+  }
+  ~Writer() {
+    for (sqlite3_stmt* s : {begin, commit, definition, node, transition}) sqlite3_finalize(s);
+  }
+  Writer(const Writer&) = delete;
+  Writer& operator=(const Writer&) = delete;
+
+  sqlite3_stmt* prepare(const char* sql) {
+    sqlite3_stmt* s = nullptr;
+    if (sqlite3_prepare_v3(d.db, sql, -1, SQLITE_PREPARE_PERSISTENT, &s, nullptr) != SQLITE_OK)
+      throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(d.db));
+    return s;
+  }
+  // The connection's database becomes a copy of the empty log.
+  void fresh() {
+    const std::vector<unsigned char>& empty = emptyLogImage();
+    auto* start = static_cast<unsigned char*>(sqlite3_malloc64(empty.size()));
+    if (!start) throw std::runtime_error("sqlite: out of memory");
+    std::memcpy(start, empty.data(), empty.size());
+    const auto bytes = static_cast<sqlite3_int64>(empty.size());
+    if (sqlite3_deserialize(d.db, "main", start, bytes, bytes, SQLITE_DESERIALIZE_FREEONCLOSE | SQLITE_DESERIALIZE_RESIZEABLE) !=
+        SQLITE_OK)
+      throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(d.db));
+  }
+};
+
+// Writes `size` bytes to `path` (created or truncated) with one write(2) where it can.
+void writeFile(const std::string& path, const unsigned char* data, size_t size) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
+  size_t done = 0;
+  while (done < size) {
+    const ssize_t n = ::write(fd, data + done, size - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const std::string why = std::strerror(errno);
+      ::close(fd);
+      throw std::runtime_error("cannot write " + path + ": " + why);
+    }
+    done += static_cast<size_t>(n);
+  }
+  if (::close(fd) != 0) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
+}
+
 }  // namespace
 
 void TransitionRecorder::write(const std::string& file, const Tree& tree, const std::string& date,
                                const std::string& xml) const {
   // Built in memory from the empty log's image and written to the file in one write, renamed into
-  // place when complete (flushed like trials.jsonl, not synced): 0.40-0.44 ms a log, against
-  // 0.62 ms for running the schema's statements into the file (measured with `minimanip bench`).
-  const std::vector<unsigned char>& empty = emptyLogImage();
-  Db d;
-  if (sqlite3_open(":memory:", &d.db) != SQLITE_OK) throw std::runtime_error("sqlite: cannot open an in-memory database");
-  auto* start = static_cast<unsigned char*>(sqlite3_malloc64(empty.size()));
-  if (!start) throw std::runtime_error("sqlite: out of memory");
-  std::memcpy(start, empty.data(), empty.size());
-  const auto bytes = static_cast<sqlite3_int64>(empty.size());
-  if (sqlite3_deserialize(d.db, "main", start, bytes, bytes, SQLITE_DESERIALIZE_FREEONCLOSE | SQLITE_DESERIALIZE_RESIZEABLE) !=
-      SQLITE_OK)
-    throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(d.db));
-  d.exec("BEGIN TRANSACTION;");
-  sqlite3_stmt* def = d.prepare("INSERT into Definitions (date, xml_tree) VALUES (?, ?);");
-  sqlite3_bind_text(def, 1, date.c_str(), -1, SQLITE_TRANSIENT);
-  sqlite3_bind_text(def, 2, xml.c_str(), -1, SQLITE_TRANSIENT);
-  d.step(def);
-  sqlite3_finalize(def);
-  const sqlite3_int64 session = sqlite3_last_insert_rowid(d.db);
-  // Every node of every subtree instance, main tree first, in creation order (as BT.CPP).
-  sqlite3_stmt* node = d.prepare("INSERT INTO Nodes VALUES (?, ?, ?);");
-  for (const Tree::Subtree& s : tree.subtrees())
-    for (const TreeNode* n : s.nodes) {
-      sqlite3_bind_int64(node, 1, session);
-      sqlite3_bind_text(node, 2, n->fullPath().c_str(), -1, SQLITE_TRANSIENT);
-      sqlite3_bind_int(node, 3, n->uid());
-      d.step(node);
-    }
-  sqlite3_finalize(node);
-  sqlite3_stmt* tr = d.prepare("INSERT INTO Transitions VALUES (?, ?, ?, ?, ?, ?);");
-  for (const Transition& t : transitions_) {
-    sqlite3_bind_int64(tr, 1, t.timestamp_us);
-    sqlite3_bind_int64(tr, 2, session);
-    sqlite3_bind_int(tr, 3, t.uid);
-    sqlite3_bind_int64(tr, 4, t.duration_us);
-    sqlite3_bind_int(tr, 5, t.state);
-    sqlite3_bind_text(tr, 6, "", -1, SQLITE_STATIC);
-    d.step(tr);
-  }
-  sqlite3_finalize(tr);
-  d.exec("COMMIT;");
+  // place when complete (flushed like trials.jsonl, not synced). `minimanip bench` times it.
+  thread_local std::unique_ptr<Writer> writer;
+  if (!writer) writer = std::make_unique<Writer>();
+  Writer& w = *writer;
+  unsigned char* image = nullptr;
   sqlite3_int64 size = 0;
-  unsigned char* image = sqlite3_serialize(d.db, "main", &size, 0);
-  if (!image) throw std::runtime_error("sqlite: cannot serialize the log for " + file);
-  const std::string tmp = file + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out.write(reinterpret_cast<const char*>(image), static_cast<std::streamsize>(size));
-    sqlite3_free(image);
-    if (!out.flush()) throw std::runtime_error("cannot write " + tmp);
+  try {
+    w.fresh();
+    w.d.step(w.begin);
+    sqlite3_bind_text(w.definition, 1, date.c_str(), -1, SQLITE_STATIC);
+    sqlite3_bind_text(w.definition, 2, xml.c_str(), -1, SQLITE_STATIC);
+    w.d.step(w.definition);
+    const sqlite3_int64 session = sqlite3_last_insert_rowid(w.d.db);
+    // Every node of every subtree instance, main tree first, in creation order (as BT.CPP).
+    for (const Tree::Subtree& s : tree.subtrees())
+      for (const TreeNode* n : s.nodes) {
+        sqlite3_bind_int64(w.node, 1, session);
+        sqlite3_bind_text(w.node, 2, n->fullPath().c_str(), -1, SQLITE_TRANSIENT);
+        sqlite3_bind_int(w.node, 3, n->uid());
+        w.d.step(w.node);
+      }
+    for (const Transition& t : transitions_) {
+      sqlite3_bind_int64(w.transition, 1, t.timestamp_us);
+      sqlite3_bind_int64(w.transition, 2, session);
+      sqlite3_bind_int(w.transition, 3, t.uid);
+      sqlite3_bind_int64(w.transition, 4, t.duration_us);
+      sqlite3_bind_int(w.transition, 5, t.state);
+      sqlite3_bind_text(w.transition, 6, "", -1, SQLITE_STATIC);
+      w.d.step(w.transition);
+    }
+    w.d.step(w.commit);
+    image = sqlite3_serialize(w.d.db, "main", &size, 0);
+    if (!image) throw std::runtime_error("sqlite: cannot serialize the log for " + file);
+  } catch (...) {
+    writer.reset();  // a statement or a transaction may be left open: the next log starts anew
+    throw;
   }
+  const std::string tmp = file + ".tmp";
+  try {
+    writeFile(tmp, image, static_cast<size_t>(size));
+  } catch (...) {
+    sqlite3_free(image);
+    throw;
+  }
+  sqlite3_free(image);
   std::filesystem::rename(tmp, file);
 }
 
