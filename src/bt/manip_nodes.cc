@@ -515,7 +515,7 @@ class IsBinNotEmpty final : public TaskCondition {
   using TaskCondition::TaskCondition;
   static PortsList providedPorts() {
     return {inputPort<bool>("count_held", "true",
-                            "the object in the hand counts (taken from the bin and not yet placed); false: the bin's sensor alone")};
+                            "the object in the hand counts (from the fingers closing on it to their letting go); false: the bin's sensor alone")};
   }
 
  protected:
@@ -584,9 +584,10 @@ void registerTaskNodes(Factory& f, TaskNodeEnv& env) {
                        "max_tracking_error of its command.");
   add<IsBinNotEmpty>(f, env, "IsBinNotEmpty",
                      "SUCCESS while objects remain to be cleared from the bin: one rests in it as the bin's sensor sees it "
-                     "(over the bin floor, less than 10 cm above it) or, with count_held, the gripper holds one (taken out "
-                     "and not yet let go of), so that lifting the last object out does not fail a condition guarding its "
-                     "pick. With count_held false, the bin's sensor alone.");
+                     "(over the bin floor, less than 10 cm above it) or, with count_held, the gripper holds one (from the "
+                     "fingers closing on it to their letting go), so that the pick and place of the last object do not fail "
+                     "a condition checked during them; it fails once the last object is let go of. With count_held false, "
+                     "the bin's sensor alone.");
   add<IsGraspable>(f, env, "IsGraspable",
                    "SUCCESS when the detected object at object_pose has a grasp that passes every check now (IK, collision, "
                    "approach, lift); FAILURE otherwise (flush against a neighbour or a wall: PushObject it).");

@@ -196,6 +196,34 @@ TEST(Halt, HaltTreeReachesRunningChildrenAndRunsOnHalted) {
   EXPECT_EQ(c.tree->rootBlackboard().getEntry("ha")->value.integer(), 1);
 }
 
+// ---- Switch4..6 (Switch2 and Switch3 are in the BT.CPP traces; all share one implementation) ----
+
+TEST(Switch, EveryCaseAndTheDefaultOfSwitch4To6) {
+  for (int n = 4; n <= 6; ++n) {
+    std::string cases, children;
+    for (int k = 1; k <= n; ++k) {
+      cases += " case_" + std::to_string(k) + "=\"c" + std::to_string(k) + "\"";
+      children += "<Script code=\"ran := " + std::to_string(k) + "\"/>";
+    }
+    children += "<Script code=\"ran := 0\"/>";  // the default
+    for (int pick = 0; pick <= n; ++pick) {
+      const std::string value = pick == 0 ? "none" : "c" + std::to_string(pick);
+      const std::string xml = "<root BTCPP_format=\"4\"><BehaviorTree ID=\"M\"><Sequence><Script code=\"v := '" + value +
+                              "'\"/><Switch" + std::to_string(n) + " variable=\"{v}\"" + cases + ">" + children + "</Switch" +
+                              std::to_string(n) + "></Sequence></BehaviorTree></root>";
+      SCOPED_TRACE(xml);
+      Clocked c(xml);
+      EXPECT_EQ(c.tree->tickOnce(), NodeStatus::kSuccess);
+      EXPECT_EQ(c.tree->rootBlackboard().getEntry("ran")->value.integer(), pick);
+    }
+  }
+  // A SwitchN needs N + 1 children.
+  EXPECT_THROW(Clocked(R"(<root BTCPP_format="4"><BehaviorTree ID="M">
+                 <Switch4 variable="x" case_1="a" case_2="b" case_3="c" case_4="d"><AlwaysSuccess/></Switch4>
+               </BehaviorTree></root>)"),
+               InputError);
+}
+
 // ---- load-time errors: file, line, node, what was expected ----
 
 std::string loadError(const std::string& xml) {

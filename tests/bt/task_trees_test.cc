@@ -17,6 +17,7 @@
 #include "sim/hardware.h"
 #include "sim/scene_sampler.h"
 #include "sim/sim_world.h"
+#include "task/pick_place.h"
 
 namespace mm {
 namespace {
@@ -84,6 +85,23 @@ Result runTree(const std::string& tree, std::vector<std::string> sets, uint64_t 
   return r;
 }
 
+// The same trial through the tree-less chain (runPickAndPlace): the reference pick_place.xml is
+// held to.
+TrialOutcome runChain(uint64_t trial) {
+  const Experiment e = loadExperiment("experiments/quickstart.yaml", {});
+  static const RobotModel robot = RobotModel::load("robots/panda/panda.yaml");
+  auto world = loadWorld(e, robot);
+  const Cell cell = makeCell(e, robot, *world);
+  Rng rng = Rng::stream(e.seed, trial, Purpose::kScene);
+  const SpawnResult spawn = spawnObjects(*world, robot, cell.T_world_bin, cell.bin_half, rng, cell.spawn);
+  EXPECT_TRUE(spawn.ok) << spawn.reason;
+  auto hw = makeMujocoHardware(*world, robot, spawn.active);
+  TrialContext ctx(*hw, robot, cell.statics, e.task, cell.perception, e.seed, trial);
+  ctx.target_half_height = cell.place_target_half_height;
+  runPickAndPlace(ctx, cell.T_world_place_target);
+  return std::move(ctx.out);
+}
+
 std::string describe(const TrialOutcome& o) {
   std::string s = (o.success ? "success" : "FAILED at " + o.failure_stage + ": " + o.failure_reason) + "; tree " +
                   o.tree_status + "; placed " + std::to_string(o.picks.size()) + ", left " + std::to_string(o.objects_left_in_bin);
@@ -116,39 +134,68 @@ TEST(SourceTrees, MiniManipPicksAndPlacesOnMockAndMujoco) {
   }
 }
 
-TEST(SourceTrees, BinPickingAsWrittenPicksOnceAndHaltsTheLastCube) {
-  // Two cubes: WhileDoElse is not a loop; one pick-place and the tree is done (no home, no report).
-  const Result two = runTree("bin_picking.xml", withCubes(kMock, 2), 0);
-  EXPECT_TRUE(two.out.success) << describe(two.out);
-  EXPECT_EQ(placed(two.out), 1);
-  EXPECT_EQ(two.out.objects_left_in_bin, 1);
-  EXPECT_EQ(two.out.reported_total, -1);
-  // One cube: the condition is ticked on every tick. IsBinNotEmpty counts the cube in the hand, so
-  // the pick and the place go on; once the fingers let go of it the condition fails and the rest
-  // of the iteration is halted: no retreat (MoveToSafe), no IncrementCounter; the else branch goes
-  // home and reports 0 objects with the one cube placed.
-  const Result one = runTree("bin_picking.xml", withCubes(kMock, 1), 0);
-  EXPECT_TRUE(one.out.success) << describe(one.out);
-  EXPECT_EQ(placed(one.out), 1);
-  EXPECT_EQ(one.out.objects_left_in_bin, 0);
-  EXPECT_EQ(one.out.reported_total, 0);
-  const auto stage = [&](const std::string& name) {
-    return std::any_of(one.out.stages.begin(), one.out.stages.end(), [&](const StageRecord& s) { return s.name == name; });
-  };
-  EXPECT_FALSE(stage("plan_safe"));
-  EXPECT_TRUE(stage("return_home"));
-  // With the bin's sensor alone (count_held="false"), lifting the one cube empties the bin: the
-  // pick is halted with the cube in the hand and the trial fails.
-  std::ifstream in("experiments/trees/bin_picking.xml");
-  std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const std::string plain = "<IsBinNotEmpty/>";
-  ASSERT_NE(xml.find(plain), std::string::npos);
-  xml.replace(xml.find(plain), plain.size(), R"(<IsBinNotEmpty count_held="false"/>)");
-  const Result sensor = runTree(xml, withCubes(kMock, 1), 0);
-  EXPECT_FALSE(sensor.out.success) << describe(sensor.out);
-  EXPECT_THAT(sensor.out.failures, ::testing::Contains(::testing::Field(
-                                      &RecordedFailure::failure, ::testing::Field(&Failure::kind, FailureKind::kHalted))));
-  EXPECT_EQ(placed(sensor.out), 0);
+TEST(SourceTrees, BinPickingAsWrittenPicksOnceAndCutsTheLastCubesIterationOnMockAndMujoco) {
+  for (const auto& sets : {kMock, std::vector<std::string>{}}) {
+    SCOPED_TRACE(sets.empty() ? "MuJoCo" : "mock");
+    // Two cubes: WhileDoElse is not a loop; one pick-place and the tree is done (no home, no report).
+    const Result two = runTree("bin_picking.xml", withCubes(sets, 2), 0);
+    EXPECT_TRUE(two.out.success) << describe(two.out);
+    EXPECT_EQ(placed(two.out), 1);
+    EXPECT_EQ(two.out.objects_left_in_bin, 1);
+    EXPECT_EQ(two.out.reported_total, -1);
+    // One cube: the condition is ticked on every tick. IsBinNotEmpty counts the cube in the hand,
+    // so the pick and the place go on; once the fingers let go of it the condition fails and the
+    // rest of the iteration is halted: no retreat (MoveToSafe), no IncrementCounter; the else
+    // branch goes home and reports 0 objects with the one cube placed.
+    const Result one = runTree("bin_picking.xml", withCubes(sets, 1), 0);
+    EXPECT_TRUE(one.out.success) << describe(one.out);
+    EXPECT_EQ(placed(one.out), 1);
+    EXPECT_EQ(one.out.objects_left_in_bin, 0);
+    EXPECT_EQ(one.out.reported_total, 0);
+    EXPECT_EQ(one.out.collision_count, 0);
+    const auto stage = [&](const std::string& name) {
+      return std::any_of(one.out.stages.begin(), one.out.stages.end(), [&](const StageRecord& s) { return s.name == name; });
+    };
+    EXPECT_FALSE(stage("plan_safe"));
+    EXPECT_TRUE(stage("return_home"));
+    // With the bin's sensor alone (count_held="false"), lifting the one cube empties the bin: the
+    // pick is halted with the cube in the hand and the trial fails.
+    std::ifstream in("experiments/trees/bin_picking.xml");
+    std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string plain = "<IsBinNotEmpty/>";
+    ASSERT_NE(xml.find(plain), std::string::npos);
+    xml.replace(xml.find(plain), plain.size(), R"(<IsBinNotEmpty count_held="false"/>)");
+    const Result sensor = runTree(xml, withCubes(sets, 1), 0);
+    EXPECT_FALSE(sensor.out.success) << describe(sensor.out);
+    EXPECT_THAT(sensor.out.failures, ::testing::Contains(::testing::Field(
+                                        &RecordedFailure::failure, ::testing::Field(&Failure::kind, FailureKind::kHalted))));
+    EXPECT_EQ(placed(sensor.out), 0);
+  }
+}
+
+TEST(SourceTrees, PickPlaceTreeGivesTheChainsOutcomesOnTheQuickstart) {
+  // Deliverable of the task layer as actions: pick_place.xml and the tree-less chain of the same
+  // actions give the same outcome fields, trial by trial (100 quickstart trials of seed 1).
+  for (uint64_t trial = 0; trial < 100; ++trial) {
+    SCOPED_TRACE("trial " + std::to_string(trial));
+    const TrialOutcome tree = runTree("pick_place.xml", {}, trial).out;
+    const TrialOutcome chain = runChain(trial);
+    ASSERT_EQ(tree.success, chain.success) << describe(tree) << "\n" << describe(chain);
+    EXPECT_EQ(tree.failure_stage, chain.failure_stage);
+    EXPECT_EQ(tree.target_object, chain.target_object);
+    EXPECT_EQ(tree.collision_count, chain.collision_count);
+    EXPECT_EQ(tree.place_position_error, chain.place_position_error);
+    EXPECT_EQ(tree.place_orientation_error, chain.place_orientation_error);
+    EXPECT_EQ(tree.sim_time, chain.sim_time);
+    EXPECT_EQ(tree.execute_pick_time, chain.execute_pick_time);
+    EXPECT_EQ(tree.execute_place_time, chain.execute_place_time);
+    ASSERT_EQ(tree.stages.size(), chain.stages.size());
+    for (size_t k = 0; k < tree.stages.size(); ++k) {
+      EXPECT_EQ(tree.stages[k].name, chain.stages[k].name);
+      EXPECT_EQ(tree.stages[k].ok, chain.stages[k].ok);
+      EXPECT_EQ(tree.stages[k].sim_seconds, chain.stages[k].sim_seconds);
+    }
+  }
 }
 
 TEST(SourceTrees, BinPickingCorrectedClearsTheBinOnMockAndMujoco) {
