@@ -4,6 +4,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <set>
 
@@ -427,6 +428,33 @@ class Switch final : public ControlNode {
 
 // ---- decorators ------------------------------------------------------------------------------
 
+// One pending timer on the tree's clock (Timeout, Delay, Sleep): started once, it clears itself
+// before its callback runs, and is cancelled when the node cancels it or is destroyed.
+class NodeTimer {
+ public:
+  NodeTimer() = default;
+  NodeTimer(const NodeTimer&) = delete;
+  NodeTimer& operator=(const NodeTimer&) = delete;
+  ~NodeTimer() { cancel(); }
+  void start(Tree& tree, unsigned msec, std::function<void()> fn) {
+    cancel();
+    tree_ = &tree;
+    id_ = tree.addTimer(msec / 1000.0, [this, fn = std::move(fn)] {
+      id_ = 0;
+      fn();
+    });
+  }
+  void cancel() {
+    if (id_) tree_->cancelTimer(id_);
+    id_ = 0;
+  }
+
+ private:
+  Tree* tree_ = nullptr;
+  int id_ = 0;
+};
+
+
 // RetryUntilSuccessful (retry on FAILURE) and Repeat (again on SUCCESS).
 class Loop : public DecoratorNode {
  public:
@@ -555,11 +583,10 @@ class Timeout final : public DecoratorNode {
   static PortsList providedPorts() {
     return {inputPort<unsigned>("msec", "After a certain amount of time, halt() the child if it is still running.")};
   }
-  ~Timeout() override { cancel(); }
   void halt() override {
     if (started_) {
       started_ = false;
-      cancel();
+      timer_.cancel();
     }
     DecoratorNode::halt();
   }
@@ -573,8 +600,7 @@ class Timeout final : public DecoratorNode {
       setStatus(NodeStatus::kRunning);
       child_halted_ = false;
       if (*msec > 0)
-        timer_ = tree().addTimer(*msec / 1000.0, [this] {
-          timer_ = 0;
+        timer_.start(tree(), *msec, [this] {
           if (child_->status() == NodeStatus::kRunning) {
             child_halted_ = true;
             haltChild();
@@ -589,19 +615,15 @@ class Timeout final : public DecoratorNode {
     const NodeStatus s = child_->executeTick();
     if (isCompleted(s)) {
       started_ = false;
-      cancel();
+      timer_.cancel();
       resetChild();
     }
     return s;
   }
 
  private:
-  void cancel() {
-    if (timer_) tree().cancelTimer(timer_);
-    timer_ = 0;
-  }
   bool started_ = false, child_halted_ = false;
-  int timer_ = 0;
+  NodeTimer timer_;
 };
 
 // Delay: RUNNING for `delay_msec` (on the tree's clock), then the child.
@@ -611,10 +633,9 @@ class Delay final : public DecoratorNode {
   static PortsList providedPorts() {
     return {inputPort<unsigned>("delay_msec", "Tick the child after a few milliseconds")};
   }
-  ~Delay() override { cancel(); }
   void halt() override {
     started_ = false;
-    cancel();
+    timer_.cancel();
     DecoratorNode::halt();
   }
 
@@ -626,8 +647,7 @@ class Delay final : public DecoratorNode {
       complete_ = false;
       started_ = true;
       setStatus(NodeStatus::kRunning);
-      timer_ = tree().addTimer(*msec / 1000.0, [this] {
-        timer_ = 0;
+      timer_.start(tree(), *msec, [this] {
         complete_ = true;
         emitWakeUpSignal();
       });
@@ -642,12 +662,8 @@ class Delay final : public DecoratorNode {
   }
 
  private:
-  void cancel() {
-    if (timer_) tree().cancelTimer(timer_);
-    timer_ = 0;
-  }
   bool started_ = false, complete_ = false;
-  int timer_ = 0;
+  NodeTimer timer_;
 };
 
 class RunOnce final : public DecoratorNode {
@@ -796,7 +812,6 @@ class Sleep final : public StatefulActionNode {
  public:
   using StatefulActionNode::StatefulActionNode;
   static PortsList providedPorts() { return {inputPort<unsigned>("msec", "")}; }
-  ~Sleep() override { cancel(); }
 
  protected:
   NodeStatus onStart() override {
@@ -805,8 +820,7 @@ class Sleep final : public StatefulActionNode {
     if (*msec == 0) return NodeStatus::kSuccess;
     setStatus(NodeStatus::kRunning);
     waiting_ = true;
-    timer_ = tree().addTimer(*msec / 1000.0, [this] {
-      timer_ = 0;
+    timer_.start(tree(), *msec, [this] {
       waiting_ = false;
       emitWakeUpSignal();
     });
@@ -815,16 +829,12 @@ class Sleep final : public StatefulActionNode {
   NodeStatus onRunning() override { return waiting_ ? NodeStatus::kRunning : NodeStatus::kSuccess; }
   void onHalted() override {
     waiting_ = false;
-    cancel();
+    timer_.cancel();
   }
 
  private:
-  void cancel() {
-    if (timer_) tree().cancelTimer(timer_);
-    timer_ = 0;
-  }
   bool waiting_ = false;
-  int timer_ = 0;
+  NodeTimer timer_;
 };
 
 // Script and ScriptCondition: the code parsed when the tree is built.
