@@ -2,7 +2,6 @@
 
 #include <charconv>
 #include <cmath>
-#include <sstream>
 
 #include "core/error.h"
 
@@ -12,16 +11,6 @@ std::string ConfigArchive::fullKey(const char* key) const {
   std::string k;
   for (const auto& s : sections_) k += s + ".";
   return k + key;
-}
-
-std::vector<std::string> splitCommas(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream ss(text);
-  for (std::string item; std::getline(ss, item, ',');) {
-    const auto a = item.find_first_not_of(" \t"), b = item.find_last_not_of(" \t");
-    if (a != std::string::npos) out.push_back(item.substr(a, b - a + 1));
-  }
-  return out;
 }
 
 namespace {

@@ -80,7 +80,5 @@ std::vector<ParamDecl> declarationsOf(const std::function<void(ConfigArchive&)>&
 void readConfig(const ParamSet& values, const std::function<void(ConfigArchive&)>& declare,
                 const std::function<std::string(const std::string& key, const std::string& path)>& resolve_path);
 
-/// "a,b, c" -> {"a", "b", "c"} (empty items dropped).
-std::vector<std::string> splitCommas(const std::string& text);
 
 }  // namespace mm

@@ -12,6 +12,17 @@
 #include "core/error.h"
 
 namespace mm {
+
+std::vector<std::string> splitCommas(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream ss(text);
+  for (std::string item; std::getline(ss, item, ',');) {
+    const auto a = item.find_first_not_of(" \t"), b = item.find_last_not_of(" \t");
+    if (a != std::string::npos) out.push_back(item.substr(a, b - a + 1));
+  }
+  return out;
+}
+
 namespace {
 
 std::string kindName(const ParamDecl& d) {
@@ -54,16 +65,6 @@ std::string rangeText(const ParamDecl& d) {
   return s.str();
 }
 
-std::vector<std::string> items(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream ss(text);
-  for (std::string item; std::getline(ss, item, ',');) {
-    const auto a = item.find_first_not_of(" \t"), b = item.find_last_not_of(" \t");
-    if (a != std::string::npos) out.push_back(item.substr(a, b - a + 1));
-  }
-  return out;
-}
-
 // Seconds may be written with a unit: 5ms, 500us, 0.01s.
 std::string secondsText(const ParamDecl& d, const std::string& text) {
   if (d.unit != "s") return text;
@@ -93,7 +94,7 @@ std::string validate(const ParamDecl& d, const std::string& raw, const std::stri
     case ParamDecl::Kind::kRealList:
     case ParamDecl::Kind::kIntList: {
       std::string canonical;
-      for (const std::string& item : items(text)) {
+      for (const std::string& item : splitCommas(text)) {
         double v;
         if (!parseDouble(item, v) || (d.kind == ParamDecl::Kind::kIntList && v != std::floor(v)))
           throw InputError(where, expected + ", got '" + item + "' in '" + text + "'");
@@ -105,7 +106,7 @@ std::string validate(const ParamDecl& d, const std::string& raw, const std::stri
     }
     case ParamDecl::Kind::kChoiceList: {
       std::string canonical;
-      for (const std::string& item : items(text)) {
+      for (const std::string& item : splitCommas(text)) {
         if (!d.choices.empty() && std::find(d.choices.begin(), d.choices.end(), item) == d.choices.end())
           throw InputError(where, expected + ", got '" + item + "'");
         canonical += (canonical.empty() ? "" : ",") + item;
@@ -299,7 +300,7 @@ std::string ParamSet::toYaml() const {
     std::string shown = quote ? "\"" + v + "\"" : v;
     if (list) {
       shown = "[";
-      const auto parts_v = items(v);
+      const auto parts_v = splitCommas(v);
       for (size_t i = 0; i < parts_v.size(); ++i) shown += (i ? ", " : "") + parts_v[i];
       shown += "]";
     }

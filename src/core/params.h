@@ -10,6 +10,9 @@
 
 namespace mm {
 
+/// "a,b, c" -> {"a", "b", "c"} (items trimmed of spaces and tabs, empty ones dropped).
+std::vector<std::string> splitCommas(const std::string& text);
+
 struct ParamDecl {
   /// kPath: a file; kRealList: numbers "a,b,c" (a YAML sequence in a file); kIntList: integers, likewise; kChoiceList: names
   /// out of `choices` (any name when there are none). A kDouble in seconds (unit "s") also reads
