@@ -346,6 +346,26 @@ TEST(OwnTrees, ClosingOnNothingFailsTheGraspCheck) {
   EXPECT_EQ(r.out.failure_kind, FailureKind::kTree);
 }
 
+TEST(OwnTrees, TwoArmActionsInAParallelMoveOneAfterTheOther) {
+  // The second waits, RUNNING, while the first moves the arm, and plans from where it rests.
+  const Result r = runTree(wrap(R"(
+      <Sequence>
+        <DetectObject object_pose="{p}"/>
+        <Parallel success_count="2" failure_count="1">
+          <PlanAndExecutePick object_pose="{p}"/>
+          <MoveToHome/>
+        </Parallel>
+        <PlanAndExecutePlace place_pose="{place_target}"/>
+      </Sequence>)"),
+                           kMock, 0);
+  EXPECT_TRUE(r.out.success) << describe(r.out);
+  std::vector<std::string> names;
+  for (const StageRecord& st : r.out.stages) names.push_back(st.name);
+  const auto at = [&](const std::string& n) { return std::find(names.begin(), names.end(), n) - names.begin(); };
+  EXPECT_LT(at("lift"), at("plan_home"));
+  EXPECT_LT(at("return_home"), at("connect_place"));
+}
+
 TEST(OwnTrees, ARepeatFillsTheSlotsOfThePlaceGrid) {
   const Result r = runTree(wrap(R"(
       <Sequence>
