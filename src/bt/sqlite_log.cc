@@ -33,9 +33,14 @@ namespace {
 
 struct Db {
   sqlite3* db = nullptr;
+  Db() {
+    if (sqlite3_open(":memory:", &db) != SQLITE_OK) throw std::runtime_error("sqlite: cannot open an in-memory database");
+  }
   ~Db() {
     if (db) sqlite3_close(db);
   }
+  Db(const Db&) = delete;
+  Db& operator=(const Db&) = delete;
   void exec(const char* sql) {
     char* err = nullptr;
     if (sqlite3_exec(db, sql, nullptr, nullptr, &err) != SQLITE_OK) {
@@ -44,9 +49,10 @@ struct Db {
       throw std::runtime_error(std::string("sqlite: ") + what + " in: " + sql);
     }
   }
+  // A statement kept for the connection's life (the log writer's, reused from log to log).
   sqlite3_stmt* prepare(const char* sql) {
     sqlite3_stmt* s = nullptr;
-    if (sqlite3_prepare_v2(db, sql, -1, &s, nullptr) != SQLITE_OK)
+    if (sqlite3_prepare_v3(db, sql, -1, SQLITE_PREPARE_PERSISTENT, &s, nullptr) != SQLITE_OK)
       throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(db));
     return s;
   }
@@ -62,7 +68,6 @@ struct Db {
 const std::vector<unsigned char>& emptyLogImage() {
   static const std::vector<unsigned char> image = [] {
     Db d;
-    if (sqlite3_open(":memory:", &d.db) != SQLITE_OK) throw std::runtime_error("sqlite: cannot open an in-memory database");
     d.exec("PRAGMA page_size=1024;");  // a 5 KB log instead of 20 KB
     d.exec(
         "CREATE TABLE IF NOT EXISTS Transitions (timestamp  INTEGER PRIMARY KEY NOT NULL, session_id INTEGER NOT NULL, "
@@ -94,13 +99,12 @@ struct Writer {
   sqlite3_stmt* transition = nullptr;
 
   Writer() {
-    if (sqlite3_open(":memory:", &d.db) != SQLITE_OK) throw std::runtime_error("sqlite: cannot open an in-memory database");
     fresh();
-    begin = prepare("BEGIN TRANSACTION;");
-    commit = prepare("COMMIT;");
-    definition = prepare("INSERT into Definitions (date, xml_tree) VALUES (?, ?);");
-    node = prepare("INSERT INTO Nodes VALUES (?, ?, ?);");
-    transition = prepare("INSERT INTO Transitions VALUES (?, ?, ?, ?, ?, ?);");
+    begin = d.prepare("BEGIN TRANSACTION;");
+    commit = d.prepare("COMMIT;");
+    definition = d.prepare("INSERT into Definitions (date, xml_tree) VALUES (?, ?);");
+    node = d.prepare("INSERT INTO Nodes VALUES (?, ?, ?);");
+    transition = d.prepare("INSERT INTO Transitions VALUES (?, ?, ?, ?, ?, ?);");
   }
   ~Writer() {
     for (sqlite3_stmt* s : {begin, commit, definition, node, transition}) sqlite3_finalize(s);
@@ -108,12 +112,6 @@ struct Writer {
   Writer(const Writer&) = delete;
   Writer& operator=(const Writer&) = delete;
 
-  sqlite3_stmt* prepare(const char* sql) {
-    sqlite3_stmt* s = nullptr;
-    if (sqlite3_prepare_v3(d.db, sql, -1, SQLITE_PREPARE_PERSISTENT, &s, nullptr) != SQLITE_OK)
-      throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(d.db));
-    return s;
-  }
   // The connection's database becomes a copy of the empty log.
   void fresh() {
     const std::vector<unsigned char>& empty = emptyLogImage();
