@@ -2,16 +2,14 @@
 
 #include <sqlite3.h>
 
-#include <fcntl.h>
-#include <unistd.h>
-
-#include <cerrno>
 #include <cmath>
 #include <cstring>
-#include <filesystem>
 #include <memory>
 #include <stdexcept>
+#include <string_view>
 #include <vector>
+
+#include "core/file_io.h"
 
 namespace mm::bt {
 
@@ -125,24 +123,6 @@ struct Writer {
   }
 };
 
-// Writes `size` bytes to `path` (created or truncated) with one write(2) where it can.
-void writeFile(const std::string& path, const unsigned char* data, size_t size) {
-  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
-  size_t done = 0;
-  while (done < size) {
-    const ssize_t n = ::write(fd, data + done, size - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      const std::string why = std::strerror(errno);
-      ::close(fd);
-      throw std::runtime_error("cannot write " + path + ": " + why);
-    }
-    done += static_cast<size_t>(n);
-  }
-  if (::close(fd) != 0) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
-}
-
 }  // namespace
 
 void TransitionRecorder::write(const std::string& file, const Tree& tree, const std::string& date,
@@ -185,15 +165,13 @@ void TransitionRecorder::write(const std::string& file, const Tree& tree, const 
     writer.reset();  // a statement or a transaction may be left open: the next log starts anew
     throw;
   }
-  const std::string tmp = file + ".tmp";
   try {
-    writeFile(tmp, image, static_cast<size_t>(size));
+    writeFileAtomically(file, std::string_view(reinterpret_cast<const char*>(image), static_cast<size_t>(size)));
   } catch (...) {
     sqlite3_free(image);
     throw;
   }
   sqlite3_free(image);
-  std::filesystem::rename(tmp, file);
 }
 
 }  // namespace mm::bt

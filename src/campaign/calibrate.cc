@@ -14,6 +14,7 @@
 
 #include "campaign/trial.h"
 #include "core/error.h"
+#include "core/file_io.h"
 #include "kinematics/ik.h"
 #include "perception/calibration.h"
 #include "render/renderer.h"
@@ -276,7 +277,7 @@ std::string runCalibration(const Experiment& e, const CalibrateOptions& o) {
   }
 
   // The report.
-  fs::create_directories(o.out_dir);
+  createDirectories(o.out_dir);
   std::ostringstream md;
   md << std::fixed;
   md << "# Hand-eye calibration\n\n`" << o.command_line << "` (seed " << o.seed << ", " << o.views << " poses a mounting, "
@@ -337,16 +338,17 @@ std::string runCalibration(const Experiment& e, const CalibrateOptions& o) {
   if (chosen) {
     const fs::path path = fs::path(o.out_dir) / (e.perception.camera + "_extrinsics.yaml");
     const Quat q(chosen->X.linear());
-    std::ofstream f(path);
+    std::ostringstream f;
     f << std::setprecision(10) << "# minimanip calibrate: eye-to-hand, method " << chosen->method << ", with image noise\n"
       << "camera: " << e.perception.camera << "\n"
       << "position: [" << chosen->X.translation().x() << ", " << chosen->X.translation().y() << ", " << chosen->X.translation().z() << "]\n"
       << "quaternion_wxyz: [" << q.w() << ", " << q.x() << ", " << q.y() << ", " << q.z() << "]\n";
+    writeFileAtomically(path, f.str());
     md << "Written for camera perception (`perception.extrinsics`): `" << path.string() << "`.\n";
     j["extrinsics_file"] = path.string();
   }
-  std::ofstream(fs::path(o.out_dir) / "calibration.json") << j.dump(2) << "\n";
-  std::ofstream(fs::path(o.out_dir) / "calibration.md") << md.str();
+  writeFileAtomically(fs::path(o.out_dir) / "calibration.json", j.dump(2) + "\n");
+  writeFileAtomically(fs::path(o.out_dir) / "calibration.md", md.str());
   return md.str();
 }
 

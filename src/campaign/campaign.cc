@@ -28,6 +28,9 @@
 #include "campaign/stats.h"
 #include "campaign/trial.h"
 #include "core/error.h"
+#include "core/file_io.h"
+#include "core/folder_lock.h"
+#include "core/utf8.h"
 #include "planning/planner.h"
 #include "render/gl_context.h"
 #include "render/renderer.h"
@@ -51,22 +54,18 @@ TrialRecord makeRecord(const Experiment& e, uint64_t trial, const SpawnResult& s
   r.trial = trial;
   r.seed = e.seed;
   r.hardware = e.hardware;
-  r.objects_in_bin = static_cast<int>(spawn.active.size());
+  r.objects_in_bin = spawn.ok ? static_cast<int>(spawn.active.size()) : 0;  // a failed spawn put no object in play
   r.spawn_attempts = spawn.attempts;
   r.bt_log = bt_log;
   r.o = std::move(o);
   return r;
 }
 
-void writeAtomically(const fs::path& path, const std::string& text) {
-  const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp);
-    out << text;
-    out.flush();
-    if (!out) throw std::runtime_error("cannot write " + tmp.string());
-  }
-  fs::rename(tmp, path);
+/// Empty but for a lock file a finished writer left.
+bool isEmptyFolder(const fs::path& dir) {
+  for (const auto& f : fs::directory_iterator(dir))
+    if (f.path().filename() != FolderLock::kFileName) return false;
+  return true;
 }
 
 std::string cpuModel() {
@@ -143,7 +142,7 @@ std::string summaryTable(const CampaignSummary& s) {
   }
   t << "  Collisions:        " << s.collision_events << " events in " << n << " trials\n";
   t << "  Objects placed:    " << s.objects_placed << " (" << s.objects_left_in_bin << " left in bins; " << s.bins_cleared << " of "
-    << n << " bins empty)\n";
+    << n << " bins empty" << (s.spawn_failures ? "; " + std::to_string(s.spawn_failures) + " spawns failed" : std::string()) << ")\n";
   if (s.objects_spawned > 0)
     t << "  Object Yield:      " << std::setprecision(1) << 100 * s.object_yield << "%  [95% CI " << 100 * s.object_yield_ci95.at(0)
       << ", " << 100 * s.object_yield_ci95.at(1) << "]; first-pass " << 100 * s.object_first_pass_yield << "% [95% CI "
@@ -285,6 +284,7 @@ struct ResumeState {
   long trials = 0;                ///< the campaign's trial count (the largest asked for)
   std::vector<char> done;         ///< by trial index
   long done_count = 0, ok_count = 0, dropped_lines = 0;
+  std::string meta;               ///< campaign.json's text for this run (written when the run does anything)
 };
 
 /// Prepares `out` for the campaign: a new one, or the resumption of the same campaign (everything
@@ -320,40 +320,65 @@ ResumeState prepareResults(const Experiment& e, const fs::path& out, const json&
   } else if (fs::exists(jsonl_path) || fs::exists(out / "summary.json")) {
     throw InputError(out.string(), "holds results but no campaign.json (not made by this version): remove it or use another --out");
   }
-  fs::create_directories(out);
-  if (e.bt_log != "none") fs::create_directories(out / "bt");
+  createDirectories(out);
+  if (e.bt_log != "none") createDirectories(out / "bt");
   if (fs::exists(out / "bt"))
     for (const auto& f : fs::directory_iterator(out / "bt"))
       if (f.path().extension() == ".tmp") fs::remove(f.path());  // a worker killed mid-write
   st.done.assign(static_cast<size_t>(e.trials), 0);
   if (st.resumed && fs::exists(jsonl_path)) {
-    // Keep the complete, finished records; write them back by temp file + rename when any is dropped.
-    std::ifstream in(jsonl_path, std::ios::binary);
-    const fs::path tmp = out / "trials.jsonl.tmp";
-    std::ofstream kept(tmp, std::ios::binary | std::ios::trunc);
-    std::string line;
-    long number = 0;
-    while (std::getline(in, line)) {
-      ++number;
-      if (in.eof()) {  // no newline: the supervisor died while writing it
-        ++st.dropped_lines;
-        break;
+    // Keep the complete, finished records. Read once to judge; rewrite (temp file + rename) only
+    // when a line must go, so a resume with nothing to drop needs no room for a copy.
+    std::vector<long> drop;  // line numbers
+    {
+      std::ifstream in(jsonl_path, std::ios::binary);
+      std::string line;
+      long number = 0;
+      while (std::getline(in, line)) {
+        ++number;
+        if (in.eof()) {  // no newline: the supervisor died while writing it
+          drop.push_back(number);
+          break;
+        }
+        const TrialRecord r = fromJsonLine(line, jsonl_path.string() + ":" + std::to_string(number));
+        if ((r.o.failure_kind == FailureKind::kCrash || r.o.failure_kind == FailureKind::kHang) && will_run(r.trial)) {
+          drop.push_back(number);  // run again
+          continue;
+        }
+        if (r.trial >= st.done.size()) st.done.resize(r.trial + 1, 0);
+        if (st.done[r.trial])
+          throw InputError(jsonl_path.string() + ":" + std::to_string(number), "trial " + std::to_string(r.trial) + " is recorded twice");
+        st.done[r.trial] = 1;
+        if (will_run(r.trial)) ++st.done_count, st.ok_count += r.o.success;  // this run's part, for the progress
       }
-      const TrialRecord r = fromJsonLine(line, jsonl_path.string() + ":" + std::to_string(number));
-      if ((r.o.failure_kind == FailureKind::kCrash || r.o.failure_kind == FailureKind::kHang) && will_run(r.trial)) {
-        ++st.dropped_lines;  // run again
-        continue;
-      }
-      if (r.trial >= st.done.size()) st.done.resize(r.trial + 1, 0);
-      if (st.done[r.trial]) throw InputError(jsonl_path.string() + ":" + std::to_string(number), "trial " + std::to_string(r.trial) + " is recorded twice");
-      st.done[r.trial] = 1;
-      if (will_run(r.trial)) ++st.done_count, st.ok_count += r.o.success;  // this run's part, for the progress
-      kept << line << "\n";
     }
-    kept.close();
-    if (!kept) throw std::runtime_error("cannot write " + tmp.string());
-    if (st.dropped_lines) fs::rename(tmp, jsonl_path);
-    else fs::remove(tmp);
+    st.dropped_lines = static_cast<long>(drop.size());
+    if (!drop.empty()) {
+      const fs::path tmp = out / "trials.jsonl.tmp";
+      try {
+        AppendFile kept(tmp);
+        std::ifstream in(jsonl_path, std::ios::binary);
+        std::string line, chunk;
+        long number = 0;
+        size_t next_drop = 0;
+        while (std::getline(in, line)) {
+          ++number;
+          if (next_drop < drop.size() && drop[next_drop] == number) {
+            ++next_drop;
+            continue;
+          }
+          chunk += line;
+          chunk += '\n';
+          if (chunk.size() > (1u << 20)) kept.append(chunk), chunk.clear();
+        }
+        kept.append(chunk);
+        kept.close();
+        if (::rename(tmp.c_str(), jsonl_path.c_str()) != 0) throw OutputError(jsonl_path.string(), errnoText(errno));
+      } catch (...) {
+        fs::remove(tmp);  // never left behind
+        throw;
+      }
+    }
   } else if (!st.resumed) {
     st.date = localDateTime();
     st.first_command = command;
@@ -363,9 +388,10 @@ ResumeState prepareResults(const Experiment& e, const fs::path& out, const json&
   const json replay = {{"experiment", fs::absolute(e.file).lexically_normal().string()},
                        {"sets", e.sets},
                        {"cwd", fs::current_path().string()}};
-  const json m = {{"schema", 1},         {"date", st.date},   {"command", st.first_command}, {"trials", st.trials},
-                  {"shard", e.shard},    {"fingerprint", fingerprint}, {"replay", replay}};
-  writeAtomically(meta, m.dump(2) + "\n");
+  st.meta = json{{"schema", 1},      {"date", st.date},           {"command", st.first_command}, {"trials", st.trials},
+                 {"shard", e.shard}, {"fingerprint", fingerprint}, {"replay", replay}}
+                .dump(2, ' ', false, json::error_handler_t::replace) +
+            "\n";
   return st;
 }
 
@@ -373,7 +399,8 @@ ResumeState prepareResults(const Experiment& e, const fs::path& out, const json&
 
 // Supervisor -> worker, one line per trial: "RUN <trial> <attempt>"; end of input: exit.
 // Worker -> supervisor: "READY <fingerprint digest>" once loaded, then per trial its trials.jsonl
-// line, or "ERROR <message>" before it exits on an internal error.
+// line, or "ERROR <message>" before it exits on an internal error, or "OUTPUT <path>\t<cause>"
+// when it cannot write its results (a full disk): the supervisor stops the campaign with that.
 
 void testFault(const Experiment& e, uint64_t trial, int attempt) {
   auto has = [&](const std::vector<int64_t>& v) { return std::find(v.begin(), v.end(), static_cast<int64_t>(trial)) != v.end(); };
@@ -393,6 +420,7 @@ TrialRecord runOneTrial(const Experiment& e, const RobotModel& robot, const Cell
   std::string bt_log;
   if (!spawn.ok) {
     o.failure_stage = "spawn";
+    o.failure_kind = FailureKind::kSpawn;
     o.failure_reason = spawn.reason;
   } else {
     auto hw = e.hardware == "mock" ? makeMockHardware(world, robot, spawn.active) : makeMujocoHardware(world, robot, spawn.active);
@@ -515,6 +543,13 @@ int runWorker(const Experiment& e, const std::string& out_dir) {
       const std::string text = toJsonLine(r);
       std::fputs(text.c_str(), to_supervisor);
       std::fputc('\n', to_supervisor);
+    } catch (const OutputError& ex) {
+      // Not the trial's doing: the supervisor stops the campaign and names the path and cause.
+      std::string path = ex.path(), cause = ex.cause();
+      for (std::string* t : {&path, &cause}) std::replace_if(t->begin(), t->end(), [](char c) { return c == '\n' || c == '\t'; }, ' ');
+      std::fprintf(to_supervisor, "OUTPUT %s\t%s\n", path.c_str(), cause.c_str());
+      std::fflush(to_supervisor);
+      return 3;
     } catch (const std::exception& ex) {
       std::string what = ex.what();
       std::replace(what.begin(), what.end(), '\n', ' ');
@@ -528,6 +563,21 @@ int runWorker(const Experiment& e, const std::string& out_dir) {
 }
 
 void checkCampaignInput(const Experiment& e) {
+  // The text files the experiment names: UTF-8, checked where they enter (names in them reach
+  // the records). The YAML experiment itself was checked as it was read.
+  {
+    const RobotSpec spec = loadAnyRobotSpec(e.robot_path, e.gripper_path == "default" ? "" : e.gripper_path);
+    fs::path catalogue = e.spawn.catalogue;  // as SpawnOptions::resolve finds it
+    if (catalogue.is_relative()) catalogue = fs::path(MINIMANIP_SOURCE_DIR) / catalogue;
+    for (const std::string& f : {e.robot_path, spec.sidecar, spec.gripper.file, e.scene_path, e.tree_path, catalogue.string(),
+                                 e.perception.extrinsics == "simulator" ? std::string() : e.perception.extrinsics}) {
+      if (f.empty() || !fs::is_regular_file(f)) continue;
+      std::ifstream in(f, std::ios::binary);
+      std::ostringstream text;
+      text << in.rdbuf();
+      requireUtf8File(text.str(), f);
+    }
+  }
   const RobotModel robot = loadExperimentRobot(e);
   const auto world = loadWorld(e, robot);
   makeCell(e, robot, *world);
@@ -560,15 +610,24 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
                wanted.end());
   std::sort(wanted.begin(), wanted.end());
   wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
+  // One supervisor per folder: a second one (or a merge, a sweep) refuses, naming the first.
+  std::string took_over;
+  const FolderLock lock(out, "minimanip run", &took_over);
+  if (!took_over.empty() && e.progress != "none") std::cerr << "note: " << took_over << "\n";
   ResumeState st = prepareResults(e, out, fingerprint, co.command_line,
                                   [&](uint64_t t) { return std::binary_search(wanted.begin(), wanted.end(), t); });
-  writeAtomically(out / "config.resolved.yaml", "# " + co.command_line + "\n" + e.params.toYaml());
 
   std::deque<std::pair<uint64_t, int>> queue;  // trial, attempt
   for (uint64_t t : wanted)
     if (t >= st.done.size() || !st.done[t]) queue.emplace_back(t, 1);
   const long before = static_cast<long>(wanted.size() - queue.size());
   const long run_now = static_cast<long>(queue.size());
+  // A resume with nothing to do writes nothing (not even the record of how it was called).
+  const bool writes = run_now > 0 || st.dropped_lines > 0 || !fs::exists(out / "campaign.json") || !fs::exists(out / "summary.json");
+  if (writes) {
+    writeFileIfChanged(out / "campaign.json", st.meta);
+    writeFileIfChanged(out / "config.resolved.yaml", "# " + co.command_line + "\n" + e.params.toYaml());
+  }
 
   const std::string binary = co.worker_binary.empty() ? fs::read_symlink("/proc/self/exe").string() : co.worker_binary;
   std::vector<std::string> args = {"worker", e.file, "--out", out.string()};
@@ -579,20 +638,18 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
   struct sigaction old_pipe {};
   sigaction(SIGPIPE, &ignore, &old_pipe);  // a worker that died is seen on its output, not by a signal
 
-  std::ofstream jsonl(out / "trials.jsonl", std::ios::app | std::ios::binary);
+  AppendFile jsonl;
+  if (run_now > 0 || !fs::exists(out / "trials.jsonl")) jsonl = AppendFile(out / "trials.jsonl");
   Progress progress(e.progress, before + run_now, before);
   long done = before, ok = st.ok_count;
   Watchdog watchdog(e.watchdog);
   std::vector<WorkerProcess> workers(static_cast<size_t>(std::max(1, e.jobs)));
   const auto t0 = std::chrono::steady_clock::now();
   std::string fatal;
+  std::pair<std::string, std::string> output_error;  // a worker could not write: path, cause
   int startup_failures = 0;  // workers in a row that ended before they were ready
 
-  auto record = [&](const std::string& line) {
-    jsonl << line << "\n";
-    jsonl.flush();
-    if (!jsonl) throw std::runtime_error("cannot append to " + (out / "trials.jsonl").string());
-  };
+  auto record = [&](const std::string& line) { jsonl.appendLine(line); };
   auto finishWorker = [&](WorkerProcess& w) {
     close(w.to);
     close(w.from);
@@ -613,6 +670,8 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
         queue.emplace_front(w.trial, w.attempt);
         if (WIFEXITED(status) && WEXITSTATUS(status) == 2)
           fatal = "a worker process could not load the experiment (its message is above)";
+        else if (WIFEXITED(status) && WEXITSTATUS(status) == 3)
+          fatal = "a worker process could not write what it needs (its message is above)";
         else if (++startup_failures >= 3)
           fatal = "three worker processes in a row ended before they were ready (the last: " + how + ")";
       } else if (w.attempt < 2) {
@@ -683,6 +742,12 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
               if (line.substr(6) != expected_digest) fatal = "the experiment's files changed while the campaign ran";
             } else if (line.rfind("ERROR ", 0) == 0) {
               w.error = line.substr(6);
+            } else if (line.rfind("OUTPUT ", 0) == 0) {
+              const size_t tab = line.find('\t');
+              output_error = {line.substr(7, tab == std::string::npos ? std::string::npos : tab - 7),
+                              tab == std::string::npos ? std::string("unknown cause") : line.substr(tab + 1)};
+              w.busy = false;  // its trial is not the cause: it stays unrecorded, for a resume
+              fatal = "output";
             } else if (w.busy) {
               const TrialRecord r = fromJsonLine(line, "worker " + std::to_string(w.pid));
               if (r.trial != w.trial) throw std::runtime_error("worker answered for trial " + std::to_string(r.trial));
@@ -711,6 +776,7 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
   for (WorkerProcess& w : workers)
     if (w.pid > 0) kill(w.pid, SIGKILL), waitpid(w.pid, nullptr, 0);
   sigaction(SIGPIPE, &old_pipe, nullptr);
+  if (!output_error.first.empty()) throw OutputError(output_error.first, output_error.second);
   if (!fatal.empty()) throw std::runtime_error(fatal);
   jsonl.close();
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -733,12 +799,24 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
   s.trials_per_second = wall > 0 ? run_now / wall : 0.0;
   s.jobs = e.jobs;
   fillEnvironment(s);
-  if (e.render.enabled()) {
+  // Images decide camera-mode outcomes and are what renders show: the renderer is recorded
+  // whenever a trial renders anything.
+  if (e.render.enabled() || e.perception.mode == PerceptionMode::kCamera) {
     std::string why;
     const auto gl = GlContext::create(e.render.egl, &why);
     s.renderer = gl ? gl->description() : "none: " + why;
   }
-  writeAtomically(out / "summary.json", toJson(s) + "\n");
+  if (!writes) {
+    // Nothing ran: the summary of the run that did stands (its wall time, command and machine).
+    std::ifstream in(out / "summary.json");
+    std::ostringstream text;
+    text << in.rdbuf();
+    const CampaignSummary there = summaryFromJson(text.str(), (out / "summary.json").string());
+    s.command = there.command, s.wall_seconds = there.wall_seconds, s.trials_per_second = there.trials_per_second;
+    s.jobs = there.jobs, s.minimanip = there.minimanip, s.mujoco = there.mujoco, s.ompl = there.ompl;
+    s.compiler = there.compiler, s.cpu = there.cpu, s.cores = there.cores, s.host = there.host, s.renderer = there.renderer;
+  }
+  writeFileIfChanged(out / "summary.json", toJson(s) + "\n");
   return summaryTable(s);
 }
 
@@ -821,8 +899,14 @@ RenderReplay renderTrial(const std::string& results_dir, uint64_t trial, const s
   auto world = loadWorld(e, robot);
   const Cell cell = makeCell(e, robot, *world);
   const bt::TreeDocument tree = loadTree(e);
-  const fs::path renders = dir / "renders";
-  TrialRunner runner(e, cell, tree, trialRenderDir(renders.string(), trial), meta.value("date", "2000-01-01 00:00:00"));
+  // A folder of its own, emptied first: the campaign's renders/ stay the campaign's, and two
+  // replays' frames never mix. One replay of a trial at a time.
+  const fs::path renders = dir / "replays";
+  const fs::path trial_dir = trialRenderDir(renders.string(), trial);
+  const FolderLock lock(trial_dir, "minimanip render");
+  for (const auto& f : fs::directory_iterator(trial_dir))
+    if (f.path().filename() != FolderLock::kFileName) fs::remove_all(f.path());
+  TrialRunner runner(e, cell, tree, trial_dir.string(), meta.value("date", "2000-01-01 00:00:00"));
   RenderSetup setup = setUpRendering(e);
   if (!setup.renderer) throw std::runtime_error("no renderer on this machine (see the message above)");
   runner.setRenderer(setup.renderer.get(), renders.string(), setup.options);
@@ -861,8 +945,22 @@ std::string mergeResults(const std::vector<std::string>& dirs, const std::string
   }
   fs::path out = fs::path(out_dir).lexically_normal();
   if (!out.has_filename()) out = out.parent_path();  // "dir/" names dir
-  if (fs::exists(out) && !(fs::is_directory(out) && fs::is_empty(out)))
-    throw InputError(out_dir, "exists and is not empty: merge writes a new folder");
+  // A new folder, an empty one, or an earlier merge of the same campaign (a Slurm campaign
+  // submitted again), which the new merge replaces whole.
+  bool replaces = false;
+  if (fs::exists(out) && !(fs::is_directory(out) && isEmptyFolder(out))) {
+    json there;
+    try {
+      there = json::parse(std::ifstream(out / "campaign.json"));
+    } catch (const std::exception&) {
+    }
+    if (!there.is_object() || !there.contains("merged_from"))
+      throw InputError(out_dir, "exists and is not empty, and is not an earlier merge: merge writes a new folder");
+    const std::string diff = differences(there.value("fingerprint", json::object()), metas[0].value("fingerprint", json::object()),
+                                         "in " + out_dir, "in " + dirs[0]);
+    if (!diff.empty()) throw InputError(out_dir, "holds the merge of another campaign (" + diff + "): merge into a new folder");
+    replaces = true;
+  }
   std::vector<int> owner(static_cast<size_t>(trials), -1);
   auto eachRecord = [&](const std::function<void(size_t, const std::string&, const TrialRecord&)>& f) {
     for (size_t i = 0; i < dirs.size(); ++i) {
@@ -898,64 +996,84 @@ std::string mergeResults(const std::vector<std::string>& dirs, const std::string
   }
 
   // Write: trials.jsonl in the folders' order, the tree logs beside it, the summary recomputed.
-  // Into a folder beside it, renamed into place when complete: a failed merge leaves no half
-  // folder that would block the next one.
+  // Into a folder beside it, renamed into place when complete: a failed merge removes it again,
+  // and one that was killed is cleared by the next.
   const fs::path work = out.string() + ".partial";
-  fs::remove_all(work);
-  fs::create_directories(work);
-  const fs::path tmp = work / "trials.jsonl.tmp";
-  SummaryBuilder builder;
-  {
-    std::ofstream jsonl(tmp, std::ios::binary | std::ios::trunc);
-    eachRecord([&](size_t i, const std::string& line, const TrialRecord& r) {
-      jsonl << line << "\n";
-      builder.add(r);
-      if (!r.bt_log.empty()) {
-        fs::create_directories((work / r.bt_log).parent_path());
-        fs::copy_file(fs::path(dirs[i]) / r.bt_log, work / r.bt_log, fs::copy_options::overwrite_existing);
-      }
-    });
-    jsonl.flush();
-    if (!jsonl) throw std::runtime_error("cannot write " + tmp.string());
-  }
-  fs::rename(tmp, work / "trials.jsonl");
-  for (const std::string& d : dirs)  // camera renders, when a campaign has them
-    if (fs::exists(fs::path(d) / "renders"))
-      fs::copy(fs::path(d) / "renders", work / "renders", fs::copy_options::recursive | fs::copy_options::overwrite_existing);
-  if (fs::exists(fs::path(dirs[0]) / "config.resolved.yaml")) {
-    std::ifstream in{fs::path(dirs[0]) / "config.resolved.yaml"};
-    std::ostringstream text;
-    text << "# " << command << "\n" << in.rdbuf();
-    writeAtomically(work / "config.resolved.yaml", text.str());
-  }
-  json meta = metas[0];
-  meta["command"] = command;
-  meta["shard"] = "0/1";
-  meta["merged_from"] = dirs;
-  writeAtomically(work / "campaign.json", meta.dump(2) + "\n");
-
-  CampaignSummary s = builder.get();
-  double wall = 0;
-  for (const std::string& d : dirs) {
-    const fs::path p = fs::path(d) / "summary.json";
-    if (!fs::exists(p)) continue;
-    std::ifstream in(p);
-    std::ostringstream text;
-    text << in.rdbuf();
-    const CampaignSummary shard = summaryFromJson(text.str(), p.string());
-    if (d == dirs[0]) {
-      s.experiment = shard.experiment, s.experiment_file = shard.experiment_file, s.seed = shard.seed;
-      s.hardware = shard.hardware, s.tree = shard.tree, s.jobs = shard.jobs;
+  const FolderLock lock(work, "minimanip merge");  // one merge at a time
+  CampaignSummary s;
+  try {
+    for (const auto& f : fs::directory_iterator(work))
+      if (f.path().filename() != FolderLock::kFileName) fs::remove_all(f.path());  // a merge that was killed
+    SummaryBuilder builder;
+    {
+      AppendFile jsonl(work / "trials.jsonl");
+      eachRecord([&](size_t i, const std::string& line, const TrialRecord& r) {
+        jsonl.appendLine(line);
+        builder.add(r);
+        if (!r.bt_log.empty()) {
+          createDirectories((work / r.bt_log).parent_path());
+          std::error_code ec;
+          fs::copy_file(fs::path(dirs[i]) / r.bt_log, work / r.bt_log, fs::copy_options::overwrite_existing, ec);
+          if (ec) throw OutputError((work / r.bt_log).string(), ec.message());
+        }
+      });
     }
-    wall += shard.wall_seconds;
+    for (const std::string& d : dirs)  // camera renders, when a campaign has them
+      if (fs::exists(fs::path(d) / "renders")) {
+        std::error_code ec;
+        fs::copy(fs::path(d) / "renders", work / "renders", fs::copy_options::recursive | fs::copy_options::overwrite_existing, ec);
+        if (ec) throw OutputError((work / "renders").string(), ec.message());
+      }
+    if (fs::exists(fs::path(dirs[0]) / "config.resolved.yaml")) {
+      std::ifstream in{fs::path(dirs[0]) / "config.resolved.yaml"};
+      std::ostringstream text;
+      text << "# " << command << "\n" << in.rdbuf();
+      writeFileAtomically(work / "config.resolved.yaml", text.str());
+    }
+    json meta = metas[0];
+    meta["command"] = command;
+    meta["shard"] = "0/1";
+    meta["merged_from"] = dirs;
+    writeFileAtomically(work / "campaign.json", meta.dump(2, ' ', false, json::error_handler_t::replace) + "\n");
+
+    s = builder.get();
+    double wall = 0;
+    for (const std::string& d : dirs) {
+      const fs::path p = fs::path(d) / "summary.json";
+      if (!fs::exists(p)) continue;
+      std::ifstream in(p);
+      std::ostringstream text;
+      text << in.rdbuf();
+      const CampaignSummary shard = summaryFromJson(text.str(), p.string());
+      if (d == dirs[0]) {
+        s.experiment = shard.experiment, s.experiment_file = shard.experiment_file, s.seed = shard.seed;
+        s.hardware = shard.hardware, s.tree = shard.tree, s.jobs = shard.jobs;
+      }
+      wall += shard.wall_seconds;
+    }
+    s.command = command;
+    s.wall_seconds = wall;
+    s.trials_per_second = wall > 0 ? s.trials / wall : 0.0;
+    fillEnvironment(s);
+    writeFileAtomically(work / "summary.json", toJson(s) + "\n");
+  } catch (...) {
+    std::error_code ec;
+    fs::remove_all(work, ec);  // nothing half-made is left behind
+    throw;
   }
-  s.command = command;
-  s.wall_seconds = wall;
-  s.trials_per_second = wall > 0 ? s.trials / wall : 0.0;
-  fillEnvironment(s);
-  writeAtomically(work / "summary.json", toJson(s) + "\n");
-  if (fs::exists(out)) fs::remove(out);  // empty (checked above)
-  fs::rename(work, out);
+  // Into place: an empty folder is removed, an earlier merge set aside and removed once the new
+  // one stands.
+  const fs::path old = out.string() + ".old";
+  std::error_code ec;
+  if (replaces) {
+    fs::remove_all(old);
+    fs::rename(out, old, ec);
+  } else if (fs::exists(out)) {
+    fs::remove_all(out, ec);  // empty, or holding only a lock file (checked above)
+  }
+  if (!ec) fs::rename(work, out, ec);
+  if (ec) throw OutputError(out.string(), ec.message());
+  if (replaces) fs::remove_all(old);
   return summaryTable(s);
 }
 

@@ -16,6 +16,7 @@
 #include "campaign/experiment.h"
 #include "campaign/stats.h"
 #include "core/error.h"
+#include "core/file_io.h"
 #include "grasp/grasp.h"
 #include "kinematics/ik.h"
 #include "sim/scene_sampler.h"
@@ -321,9 +322,9 @@ std::string runIkBench(const IkBenchOptions& o) {
     jsets[set_name] = jset;
   }
   j["sets"] = jsets;
-  fs::create_directories(o.out_dir);
-  std::ofstream(fs::path(o.out_dir) / "ik_bench.json") << j.dump(2) << "\n";
-  std::ofstream(fs::path(o.out_dir) / "ik_bench.md") << md.str();
+  createDirectories(o.out_dir);
+  writeFileAtomically(fs::path(o.out_dir) / "ik_bench.json", j.dump(2) + "\n");
+  writeFileAtomically(fs::path(o.out_dir) / "ik_bench.md", md.str());
   return md.str();
 }
 

@@ -16,6 +16,7 @@
 #include "sim/mjcf_robot.h"
 #include "campaign/stats.h"
 #include "core/error.h"
+#include "core/file_io.h"
 #include "grasp/grasp.h"
 #include "kinematics/ik.h"
 #include "planning/chomp.h"
@@ -395,7 +396,7 @@ std::string runPlanBench(const PlanBenchOptions& o) {
          << std::setprecision(1) << moments(s.max_jerk).max << " | " << moments(s.rms_jerk).mean << " | " << s.within << "/" << s.n
          << " | " << s.stops << "/" << s.interior << " | " << s.backoffs << " | " << std::setprecision(3) << moments(s.compute_ms).mean << " |\n";
     }
-  fs::create_directories(o.out_dir);
+  createDirectories(o.out_dir);
   json j;
   j["command"] = o.command_line;
   j["seed"] = o.seed;
@@ -404,12 +405,12 @@ std::string runPlanBench(const PlanBenchOptions& o) {
   j["settings"] = {{"padding_m", o.padding}, {"time_limit_s", o.time_limit}, {"simplify", o.simplify}, {"scaling", 0.5}};
   j["machine"] = {{"cpu", cpuModel()}, {"cores", std::thread::hardware_concurrency()}};
   j["combinations"] = jc;
-  std::ofstream(fs::path(o.out_dir) / "plan_bench.json") << j.dump(2) << "\n";
-  std::ofstream(fs::path(o.out_dir) / "plan_bench.md") << md.str();
+  writeFileAtomically(fs::path(o.out_dir) / "plan_bench.json", j.dump(2) + "\n");
+  writeFileAtomically(fs::path(o.out_dir) / "plan_bench.md", md.str());
 
   // ---- OMPL benchmark log (OMPL's "benchmark logfile format"; checked by loading it with OMPL's own
   // ompl_benchmark_statistics into the database Planner Arena reads, in tests/campaign/plan_bench_test.cc) ----
-  std::ofstream log(fs::path(o.out_dir) / "plan_bench.log");
+  std::ostringstream log;
   char host[256] = "";
   gethostname(host, sizeof host - 1);
   const std::time_t now = std::time(nullptr);
@@ -453,6 +454,7 @@ std::string runPlanBench(const PlanBenchOptions& o) {
     }
     log << ".\n";
   }
+  writeFileAtomically(fs::path(o.out_dir) / "plan_bench.log", log.str());
   return md.str();
 }
 

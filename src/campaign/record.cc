@@ -33,7 +33,7 @@ void TrialRecord::describe(RecordArchive& a) {
   a.field("ticks", o.ticks, "", "root ticks, re-ticks after a wake-up included");
   a.field("sim_unstable", o.sim_unstable, "", "MuJoCo flagged a bad state");
   a.field("dropped", o.dropped, "", "a held object left the hand");
-  a.field("objects_in_bin", objects_in_bin, "", "objects spawned in the bin");
+  a.field("objects_in_bin", objects_in_bin, "", "objects spawned in the bin (0 when the spawn failed: failure_kind spawn)");
   a.field("spawn_attempts", spawn_attempts, "", "spawns drawn until one settled cleanly");
   a.field("target_object", o.target_object, "", "the first object picked (its index k: object_<k> of the trial's model)");
   a.field("grasp_candidates_tried", o.grasp_candidates_tried, "", "grasp candidates filtered, all picks");
@@ -286,7 +286,8 @@ void CampaignSummary::describe(RecordArchive& a) {
     y.field("ci95", object_first_pass_ci95, "", "Wilson 95% interval");
   }, "");
   a.field("objects_left_in_bin", objects_left_in_bin, "", "");
-  a.field("bins_cleared", bins_cleared, "", "trials that ended with the bin empty");
+  a.field("bins_cleared", bins_cleared, "", "trials that ended with the bin empty (never a trial whose spawn failed, a crash or a hang)");
+  a.field("spawn_failures", spawn_failures, "", "trials whose scene could not be set up (failure_kind spawn): no robot ran, no object counted");
   a.field("timeouts", timeouts, "", "trials past the simulated-time budget");
   a.field("crashes", crashes, "", "trials whose worker process died in both attempts (failure_kind crash)");
   a.field("hangs", hangs, "", "trials the wall-clock watchdog stopped in both attempts (failure_kind hang)");
@@ -420,7 +421,9 @@ std::string toJsonLine(TrialRecord& r) {
   json j = json::object();
   Writer w(j);
   r.describe(w);
-  return j.dump();
+  // Text that is not UTF-8 (a name read from a user's file, say) must not lose a trial's record:
+  // such bytes are written as U+FFFD. Input is checked for UTF-8 where it enters; this is the net.
+  return j.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
 TrialRecord fromJsonLine(const std::string& line, const std::string& where) {
@@ -453,7 +456,7 @@ std::string toJson(CampaignSummary& s) {
   json j = json::object();
   Writer w(j);
   s.describe(w);
-  return j.dump(2);
+  return j.dump(2, ' ', false, json::error_handler_t::replace);
 }
 
 std::string recordsMarkdown() {
@@ -500,8 +503,11 @@ void SummaryBuilder::add(const TrialRecord& r) {
     det_mssd_mm_.add(1000.0 * d.mssd);
   }
   s.missed_detections += o.missed_detections;
-  const bool harness_failure = o.failure_kind == FailureKind::kCrash || o.failure_kind == FailureKind::kHang;
-  s.bins_cleared += o.objects_left_in_bin == 0 && !harness_failure;  // a crashed trial's bin is unknown
+  // A crashed trial's bin is unknown; a trial whose spawn failed never had a bin to clear.
+  const bool harness_failure =
+      o.failure_kind == FailureKind::kCrash || o.failure_kind == FailureKind::kHang || o.failure_kind == FailureKind::kSpawn;
+  s.bins_cleared += o.objects_left_in_bin == 0 && !harness_failure;
+  s.spawn_failures += o.failure_kind == FailureKind::kSpawn;
   s.timeouts += o.tree_status == "TIMEOUT";
   s.crashes += o.failure_kind == FailureKind::kCrash;
   s.hangs += o.failure_kind == FailureKind::kHang;

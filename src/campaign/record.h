@@ -92,6 +92,7 @@ struct CampaignSummary {
   double collisions_per_100 = 0, max_tracking_error = 0;
   long sim_unstable = 0, dropped = 0, objects_placed = 0, objects_left_in_bin = 0, bins_cleared = 0, timeouts = 0;
   long crashes = 0, hangs = 0;  ///< trials whose worker process died twice / was stopped by the watchdog
+  long spawn_failures = 0;      ///< trials whose scene could not be set up (failure_kind spawn)
   std::map<std::string, long> failure_stages;
   std::vector<FaultStats> faults;  ///< per fault kind injected
   double mtbf = -1;                ///< [s] simulated time per trial failure the tree did not recover (-1: none)

@@ -12,6 +12,7 @@
 
 #include "campaign/stats.h"
 #include "core/error.h"
+#include "core/file_io.h"
 
 namespace mm {
 namespace {
@@ -482,14 +483,6 @@ json sweepSections(Builder& b, const fs::path& dir, const json& sweep) {
   return summaries.front();
 }
 
-void writeFile(const fs::path& p, const std::string& text) {
-  const fs::path tmp = p.string() + ".tmp";
-  std::ofstream out(tmp);
-  out << text;
-  out.close();
-  if (!out) throw std::runtime_error("cannot write " + tmp.string());
-  fs::rename(tmp, p);
-}
 
 }  // namespace
 
@@ -549,10 +542,10 @@ std::string writeReport(const ReportOptions& o) {
   }
   html += "</body></html>\n";
 
-  fs::create_directories(dir / "report_figures");
-  for (const auto& [name, svg] : b.files()) writeFile(dir / "report_figures" / name, "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n" + svg);
-  writeFile(dir / "report.md", md);
-  writeFile(dir / "report.html", html);
+  createDirectories(dir / "report_figures");
+  for (const auto& [name, svg] : b.files()) writeFileAtomically(dir / "report_figures" / name, "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n" + svg);
+  writeFileAtomically(dir / "report.md", md);
+  writeFileAtomically(dir / "report.html", html);
   return (dir / "report.html").string();
 }
 

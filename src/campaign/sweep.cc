@@ -4,10 +4,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 
 #include "campaign/stats.h"
 #include "core/error.h"
+#include "core/file_io.h"
+#include "core/folder_lock.h"
 
 namespace mm {
 
@@ -69,19 +72,11 @@ std::string runSweep(const Experiment& e, const CampaignOptions& o) {
       if (old.value(k, json()) != sweep.at(k))
         throw InputError(out.string(), std::string("holds another sweep: its ") + k + " is " + old.value(k, json()).dump() +
                                            ", this run's " + sweep.at(k).dump() + " (use another --out)");
-  } else if (fs::exists(out) && !fs::is_empty(out)) {
+  } else if (fs::exists(out) && !fs::is_empty(out) && !(fs::exists(out / FolderLock::kFileName) && std::distance(fs::directory_iterator(out), {}) == 1)) {
     throw InputError(out.string(), "exists and is not a sweep's results folder (use another --out)");
   }
-  fs::create_directories(out);
-  {
-    const fs::path tmp = meta.string() + ".tmp";
-    std::ofstream f(tmp);
-    f << sweep.dump(2) << "\n";
-    f.close();
-    std::error_code ec;
-    if (f) fs::rename(tmp, meta, ec);
-    if (!f || ec) throw InputError(meta.string(), "cannot be written" + (ec ? " (" + ec.message() + ")" : std::string()));
-  }
+  const FolderLock lock(out, "minimanip run (sweep)");  // one sweep per folder; each cell is locked too
+  writeFileIfChanged(meta, sweep.dump(2, ' ', false, json::error_handler_t::replace) + "\n");
 
   size_t width = 0;
   for (const auto& c : cells) {

@@ -1,6 +1,8 @@
 // minimanip: command-line entry (CLI11). Parses arguments and calls the campaign layer; nothing
 // else. The benches' options come from their declarations (declare()), like the experiment keys.
-// Exit codes: 0 done, 1 internal error, 2 bad input (nothing run, no results written).
+// Exit codes: 0 done, 1 internal error, 2 bad input (nothing run, no results written) or a results
+// folder in use by another process, 3 results that cannot be written (disk full, read-only file
+// system, permission denied: the message names the path and the cause).
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <csignal>
@@ -22,6 +24,7 @@
 #include "campaign/trial.h"
 #include "core/config.h"
 #include "core/error.h"
+#include "core/utf8.h"
 
 namespace {
 
@@ -145,7 +148,7 @@ int main(int argc, char** argv) {
   uint64_t render_trial = 0;
   std::vector<std::string> render_sets;
   CLI::App* render = app.add_subcommand("render", "a campaign's trial run again from its seed with images and video "
-                                                   "(results/<name>/renders/trial_<N>/), checked against its line in trials.jsonl");
+                                                   "(results/<name>/replays/trial_<N>/, emptied first), checked against its line in trials.jsonl");
   render->add_option("results", render_dir, "the campaign's results folder")->required();
   render->add_option("--trial", render_trial, "the trial to render")->required();
   render->add_option("--set", render_sets, "render.KEY=VALUE: what to render (default: every stage's key frame "
@@ -178,6 +181,13 @@ int main(int argc, char** argv) {
   CLI::App* gate_doc = app.add_subcommand("gate-doc", "print every key of a gate's thresholds file as a Markdown table");
 
   try {
+    // Every argument is text that may reach a record (paths, --set values): UTF-8 is checked
+    // here, where it enters, naming the option it belongs to.
+    for (int i = 1; i < argc; ++i) {
+      const std::string arg = argv[i];
+      const std::string option = i > 1 && argv[i - 1][0] == '-' && arg[0] != '-' ? std::string(argv[i - 1]) : "argument " + std::to_string(i);
+      mm::requireUtf8(arg, option, "'" + mm::escapeInvalidUtf8(arg.size() > 60 ? arg.substr(0, 60) + "..." : arg) + "'");
+    }
     const std::vector<std::string> commands = {"run", "bench", "render", "calibrate", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc", "merge", "report", "gate", "gate-doc", "worker"};
     if (argc > 1 && argv[1][0] != '-' && std::find(commands.begin(), commands.end(), argv[1]) == commands.end())
       throw mm::InputError(argv[1], "unknown command (expected run, bench, render, calibrate, merge, report, gate, ik-bench, plan-bench, config-doc, nodes-doc, results-doc or gate-doc; --help)");
@@ -280,6 +290,9 @@ int main(int argc, char** argv) {
   } catch (const mm::InputError& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 2;
+  } catch (const mm::OutputError& e) {
+    std::cerr << "error: " << e.what() << " (what was written before is complete: once that is mended, the same command resumes)\n";
+    return 3;
   } catch (const std::exception& e) {
     std::cerr << "internal error: " << e.what() << "\n";
     return 1;

@@ -1,4 +1,5 @@
-// Errors: bad user input (exit code 2) versus our own broken invariants (exit code 1).
+// Errors: bad user input (exit code 2), results that cannot be written (exit code 3) and our own
+// broken invariants (exit code 1).
 #pragma once
 #include <stdexcept>
 #include <string>
@@ -16,6 +17,20 @@ class InputError : public std::runtime_error {
 
  private:
   std::string where_;
+};
+
+/// A file or folder that cannot be written: `path` and the system's `cause` (disk full, read-only
+/// file system, permission denied, ...). Not a bug and not bad input: the CLI exits with code 3,
+/// and what was written before stays complete (appends are per line, summaries renamed into place).
+class OutputError : public std::runtime_error {
+ public:
+  OutputError(std::string path, std::string cause)
+      : std::runtime_error("cannot write " + path + ": " + cause), path_(std::move(path)), cause_(std::move(cause)) {}
+  const std::string& path() const { return path_; }
+  const std::string& cause() const { return cause_; }
+
+ private:
+  std::string path_, cause_;
 };
 
 /// Throws std::logic_error for a broken internal invariant (exit code 1): a bug of ours.

@@ -24,6 +24,7 @@ const char* failureKindName(FailureKind kind) {
     case FailureKind::kContactForce: return "contact_force";
     case FailureKind::kCrash: return "crash";
     case FailureKind::kHang: return "hang";
+    case FailureKind::kSpawn: return "spawn";
   }
   return "unknown";
 }

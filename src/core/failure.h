@@ -26,8 +26,9 @@ enum class FailureKind {
   kContactForce,          ///< an external contact force past the limit (the controller's protective stop)
   kCrash,                 ///< the trial's worker process died (a signal), in both attempts
   kHang,                  ///< the wall-clock watchdog stopped the trial's worker, in both attempts
+  kSpawn,                 ///< the trial's scene could not be set up (its objects did not settle): no robot ran
 };
-constexpr FailureKind kLastFailureKind = FailureKind::kHang;
+constexpr FailureKind kLastFailureKind = FailureKind::kSpawn;
 
 /// Stable snake_case name (written into trials.jsonl).
 const char* failureKindName(FailureKind kind);

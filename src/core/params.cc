@@ -7,9 +7,11 @@
 #include <cstdlib>
 #include <algorithm>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "core/error.h"
+#include "core/utf8.h"
 
 namespace mm {
 
@@ -137,18 +139,51 @@ std::string validate(const ParamDecl& d, const std::string& raw, const std::stri
   return text;
 }
 
+// The keys declared under `section` ("objects" -> objects.count_min, ...), for a message.
+std::string sectionKeys(const std::vector<ParamDecl>& decls, const std::string& section) {
+  std::string keys;
+  int n = 0;
+  for (const ParamDecl& d : decls)
+    if (d.key.rfind(section + ".", 0) == 0 && n++ < 6) keys += (keys.empty() ? "" : ", ") + d.key;
+  return n > 6 ? keys + ", ..." : keys;
+}
+
+// Refuses a map that names a key twice (YAML forbids it; yaml-cpp keeps both and the reader would
+// silently take one).
+void requireUniqueKeys(const YAML::Node& map, const std::string& prefix, const std::string& file) {
+  std::map<std::string, int> seen;  // key -> line
+  for (auto it = map.begin(); it != map.end(); ++it) {
+    const YAML::Mark mark = it->first.Mark();
+    const std::string name = it->first.IsScalar() ? it->first.Scalar() : "?";
+    const auto [at, fresh] = seen.emplace(name, mark.line + 1);
+    if (!fresh)
+      throw InputError(file + ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1),
+                       "duplicate key '" + (prefix.empty() ? name : prefix + "." + name) + "' (first at line " +
+                           std::to_string(at->second) + "; a key is given once)");
+  }
+}
+
 void walk(const YAML::Node& node, const std::string& prefix, const std::string& file,
           ParamSet& set) {
+  requireUniqueKeys(node, prefix, file);
   for (auto it = node.begin(); it != node.end(); ++it) {
     // yaml-cpp's iterator hands out a temporary proxy: copy what it holds (Node is a handle),
     // never bind a reference to its members.
     const YAML::Mark mark = it->first.Mark();
     const std::string where =
         file + ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1);
+    if (!it->first.IsScalar()) throw InputError(where, "expected a key (a name), got a " + std::string(it->first.IsMap() ? "map" : "list"));
     const std::string key = prefix.empty() ? it->first.as<std::string>()
                                            : prefix + "." + it->first.as<std::string>();
     const YAML::Node v = it->second;
+    if (!v.IsMap() && !set.has(key)) {
+      const std::string keys = sectionKeys(set.decls(), key);
+      if (!keys.empty())
+        throw InputError(where, "'" + key + "' is a section (" + keys + "): expected a map of its keys under it, got " +
+                                    (v.IsScalar() ? "the value '" + v.Scalar() + "'" : v.IsSequence() ? std::string("a list") : std::string("nothing")));
+    }
     if (v.IsMap()) {
+      if (set.has(key)) throw InputError(where, "'" + key + "' expects a single value, got a map");
       walk(v, key, file, set);
     } else if (v.IsScalar()) {
       set.set(key, v.Scalar(), where, file);
@@ -189,12 +224,52 @@ const ParamDecl& ParamSet::decl(const std::string& key, const std::string& where
                               (hint.empty() ? "" : " (known in this section: " + hint + ")"));
 }
 
+// The dotted key of a block-style YAML line (its parents by indentation), e.g. "camera.name";
+// "" when the line holds no key. For messages about a line that could not be parsed.
+std::string yamlKeyOfLine(const std::string& text, size_t line_no) {
+  std::vector<std::string> lines;
+  std::stringstream ss(text);
+  for (std::string l; std::getline(ss, l);) lines.push_back(l);
+  if (line_no == 0 || line_no > lines.size()) return "";
+  auto keyOf = [](const std::string& l, size_t& indent) -> std::string {
+    indent = l.find_first_not_of(' ');
+    if (indent == std::string::npos || l[indent] == '#' || l[indent] == '-') return "";
+    const size_t colon = l.find(':', indent);
+    if (colon == std::string::npos) return "";
+    std::string k = l.substr(indent, colon - indent);
+    while (!k.empty() && k.back() == ' ') k.pop_back();
+    return k;
+  };
+  size_t indent = 0;
+  std::string key = keyOf(lines[line_no - 1], indent);
+  if (key.empty()) return "";
+  for (size_t i = line_no - 1; i-- > 0 && indent > 0;) {
+    size_t pi = 0;
+    const std::string parent = keyOf(lines[i], pi);
+    if (!parent.empty() && pi < indent) key = parent + "." + key, indent = pi;
+  }
+  return key;
+}
+
 void ParamSet::loadYamlFile(const std::string& path) {
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "cannot open file (expected a YAML experiment file)");
+  std::ostringstream contents;
+  contents << in.rdbuf();
+  const std::string text = contents.str();
+  try {
+    requireUtf8File(text, path);
+  } catch (const InputError& e) {
+    // Name the key whose line holds the byte.
+    const std::string w = e.where();
+    const size_t a = w.find(':', path.size()), b = w.find(':', a + 1);
+    const std::string key = yamlKeyOfLine(text, std::stoul(w.substr(a + 1, b - a - 1)));
+    if (key.empty()) throw;
+    throw InputError(w, "the line of '" + key + "' is " + std::string(e.what()).substr(w.size() + 2));
+  }
   YAML::Node root;
   try {
-    root = YAML::Load(in);
+    root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
     throw InputError(path + ":" + std::to_string(e.mark.line + 1) + ":" +
                          std::to_string(e.mark.column + 1),
@@ -202,9 +277,11 @@ void ParamSet::loadYamlFile(const std::string& path) {
   }
   if (root.IsNull()) throw InputError(path, "empty file (expected a YAML map of settings)");
   if (!root.IsMap()) throw InputError(path + ":1:1", "expected a YAML map of settings at the top");
+  requireUniqueKeys(root, "", path);
   if (const YAML::Node sweep = root["sweep"]) {
     const std::string at = path + ":" + std::to_string(sweep.Mark().line + 1) + ":" + std::to_string(sweep.Mark().column + 1);
     if (!sweep.IsMap()) throw InputError(at, "'sweep' expects a map of keys to lists of values (objects.count_max: [1, 3, 5])");
+    requireUniqueKeys(sweep, "sweep", path);
     for (auto it = sweep.begin(); it != sweep.end(); ++it) {
       const YAML::Mark mark = it->first.Mark();
       const std::string where = path + ":" + std::to_string(mark.line + 1) + ":" + std::to_string(mark.column + 1);
@@ -227,7 +304,9 @@ void ParamSet::set(const std::string& key, const std::string& text, const std::s
 }
 
 void ParamSet::set(const std::string& key, const std::string& text, const std::string& where, const std::string& origin) {
+  requireUtf8(key, where, "the key");
   const ParamDecl& d = decl(key, where);
+  requireUtf8(text, where, "the value of '" + key + "'");
   values_[key] = validate(d, text, where);
   set_[key] = true;
   origin_[key] = origin;

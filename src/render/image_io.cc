@@ -2,25 +2,37 @@
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <sys/statvfs.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <csignal>
 #include <stdexcept>
+#include <string_view>
+#include <vector>
 
+#include "core/error.h"
+#include "core/file_io.h"
 #include "sim/sim_world.h"
 
 namespace mm {
 namespace {
 
+// Encoded in memory, then written whole by temp file + rename: a full disk is reported with its
+// cause (OutputError) and leaves no half image.
 void write(const std::string& path, const cv::Mat& image) {
+  std::vector<uchar> bytes;
   bool ok = false;
   try {
-    ok = cv::imwrite(path, image);
+    ok = cv::imencode(".png", image, bytes);
   } catch (const cv::Exception& e) {
-    throw std::runtime_error("cannot write " + path + ": " + e.what());
+    throw std::runtime_error("cannot encode " + path + ": " + e.what());
   }
-  if (!ok) throw std::runtime_error("cannot write " + path);
+  if (!ok) throw std::runtime_error("cannot encode " + path + " as PNG");
+  writeFileAtomically(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 void need(const Frame& f, bool present, const char* what) {
@@ -153,7 +165,16 @@ int VideoWriter::close() {
   if (!pipe_) return frames_;
   const int status = pclose(pipe_);
   pipe_ = nullptr;
-  if (failed_ || status != 0) throw std::runtime_error("ffmpeg failed writing " + path_ + " (status " + std::to_string(status) + ")");
+  if (failed_ || status != 0) {
+    // ffmpeg says why on stderr; a folder that cannot be written is the usual cause, and it is
+    // the folder's, not the trial's: an OutputError stops the campaign with the path.
+    struct statvfs fs {};
+    const std::string dir = path_.substr(0, path_.find_last_of('/') + 1);
+    std::string cause = "the video encoder (ffmpeg) exited with status " + std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : status);
+    if (::statvfs(dir.empty() ? "." : dir.c_str(), &fs) == 0 && fs.f_bavail == 0) cause = errnoText(ENOSPC) + " (" + cause + ")";
+    else if (::access(dir.empty() ? "." : dir.c_str(), W_OK) != 0) cause = errnoText(errno) + " (" + cause + ")";
+    throw OutputError(path_, cause);
+  }
   return frames_;
 }
 

@@ -11,9 +11,15 @@
 
 namespace mm {
 
+/// [m] The near clipping plane of every camera.
+constexpr double kNearPlane = 0.01;
+/// [m] The far plane's least distance (a cell whose geometry is not placed yet still shows).
+constexpr double kMinFarPlane = 5.0;
+
 struct Renderer::Impl {
   std::unique_ptr<GlContext> gl;
   const mjModel* model = nullptr;  // the model the scene and context below were made for
+  uint64_t model_serial = 0;       // and its number (a pointer may be reused by a later model)
   mjvScene scene;
   mjrContext context;
   mjvOption option;
@@ -29,6 +35,43 @@ struct Renderer::Impl {
     for (int g = 0; g < mjNGROUP; ++g) option.sitegroup[g] = 0;
   }
   ~Impl() { release(); }
+
+  // The near and far clipping planes from the cell: MuJoCo scales both by the model's extent
+  // (near = znear * extent), and the extent covers every body at compile time, objects parked far
+  // below the floor included; with them, nothing nearer than about a metre was drawn. Here the far
+  // plane reaches past the farthest point of the static scene and the robot (geoms' bounding
+  // spheres, from here and every camera), and the near plane is a centimetre: a wrist camera sees
+  // the fingers a few centimetres away. The depth buffer's resolution stays well under a
+  // millimetre across the cell (24 bits: dz ~ z^2 / (near * 2^24), 6 um at 1 m).
+  static void setClipPlanes(const SimWorld& world) {
+    const mjModel* m = world.mujocoModel();
+    const mjData* d = world.mujocoData();
+    const std::vector<unsigned char>& labels = world.geomLabels();
+    double lo[3] = {1e9, 1e9, 1e9}, hi[3] = {-1e9, -1e9, -1e9};
+    for (int g = 0; g < m->ngeom; ++g) {
+      const unsigned label = g < static_cast<int>(labels.size()) ? labels[static_cast<size_t>(g)] : unsigned{kSegmentScene};
+      if (label != kSegmentScene && label != kSegmentRobot) continue;  // objects and obstacles may be parked anywhere
+      const double r = m->geom_type[g] == mjGEOM_PLANE ? 0.0 : m->geom_rbound[g];
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], d->geom_xpos[3 * g + k] - r);
+        hi[k] = std::max(hi[k], d->geom_xpos[3 * g + k] + r);
+      }
+    }
+    double far = 1.0;
+    for (int c = 0; c < m->ncam; ++c)
+      for (int corner = 0; corner < 8; ++corner) {
+        double dist2 = 0;
+        for (int k = 0; k < 3; ++k) {
+          const double x = (corner >> k & 1) ? hi[k] : lo[k];
+          dist2 += (x - d->cam_xpos[3 * c + k]) * (x - d->cam_xpos[3 * c + k]);
+        }
+        far = std::max(far, std::sqrt(dist2));
+      }
+    auto* mutable_model = const_cast<mjModel*>(m);  // visual settings only: the physics never reads them
+    const double extent = m->stat.extent > 0 ? m->stat.extent : 1.0;
+    mutable_model->vis.map.znear = static_cast<float>(kNearPlane / extent);
+    mutable_model->vis.map.zfar = static_cast<float>(std::max(kMinFarPlane, 1.5 * far) / extent);
+  }
   void release() {
     if (!model) return;
     mjr_freeContext(&context);
@@ -36,10 +79,12 @@ struct Renderer::Impl {
     model = nullptr;
   }
 
-  // The scene and GPU context for `m`, with an offscreen buffer of at least w x h.
-  void prepare(const mjModel* m, int w, int h) {
-    if (m == model && w <= width && h <= height) return;
+  // The scene and GPU context for `world`'s model, with an offscreen buffer of at least w x h.
+  void prepare(const SimWorld& world, int w, int h) {
+    const mjModel* m = world.mujocoModel();
+    if (m == model && world.modelSerial() == model_serial && w <= width && h <= height) return;
     release();
+    setClipPlanes(world);
     // The offscreen buffer's size and sampling are the model's visual settings, read by
     // mjr_makeContext; the physics never reads them. No multisampling: a pixel's colour, depth
     // and label come from the same surface, so edges do not blend labels.
@@ -53,6 +98,7 @@ struct Renderer::Impl {
     mjr_makeContext(m, &context, mjFONTSCALE_100);
     mjr_setBuffer(mjFB_OFFSCREEN, &context);
     model = m;
+    model_serial = world.modelSerial();
   }
 };
 
@@ -115,7 +161,7 @@ Frame Renderer::render(const SimWorld& world, const CameraModel& camera, unsigne
   const mjModel* m = world.mujocoModel();
   mjData* d = world.mujocoData();
   const int w = camera.width, h = camera.height;
-  I.prepare(m, w, h);
+  I.prepare(world, w, h);
   mjvCamera cam;
   mjv_defaultCamera(&cam);
   cam.type = mjCAMERA_FIXED;

@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "core/error.h"
+#include "core/file_io.h"
 #include "render/image_io.h"
 #include "sim/sim_world.h"
 
@@ -55,7 +56,7 @@ TrialRenders::TrialRenders(Renderer& renderer, SimWorld& world, const RenderOpti
   camera_ = renderer_.camera(world_, options_.camera, options_.width, options_.height, file);
   for (const std::string& k : options_.images)
     kinds_ |= k == "rgb" ? kRgb : k == "depth" ? kDepth : k == "segmentation" ? kSegmentation : 0u;
-  std::filesystem::create_directories(dir_);
+  createDirectories(dir_);
   if (options_.video) {
     const double frames_per_period = options_.fps * kControlPeriod;
     steps_per_frame_ = std::max(1, static_cast<int>(std::lround(1.0 / frames_per_period)));

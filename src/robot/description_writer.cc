@@ -221,7 +221,7 @@ std::string writeMjcf(const RobotSpec& spec) {
   o << mjcfInertial(hand, ind + "  ") << mjcfGeoms(hand, ind + "  ", spec.name + "_col");
   o << ind << "  <site name=\"" << spec.tip_link << "\" pos=\"0 0 " << num(spec.tcp_offset)
     << "\" size=\"0.005\" rgba=\"1 0 0 1\"/>\n";
-  o << ind << "  <camera name=\"wrist_camera\" pos=\"0.05 0 0.04\" xyaxes=\"0 -1 0 1 0 0\" fovy=\"60\"/>\n";
+  o << ind << "  <camera name=\"wrist_camera\" pos=\"0.05 0 0.04\" xyaxes=\"0 1 0 1 0 0\" fovy=\"60\"/>\n";
   const std::pair<const LinkSpec*, int> fingers[] = {{&lf, 1}, {&rf, -1}};
   int fi = 0;
   for (const auto& [f, sign] : fingers) {

@@ -3,6 +3,7 @@
 #include <mujoco/mujoco.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -63,6 +64,7 @@ Pose poseOf(const mjtNum* pos, const mjtNum* mat) {
 struct SimWorld::Impl {
   mjModel* m = nullptr;
   mjData* d = nullptr;
+  uint64_t serial = 0;  ///< unique in the process: a model freed and another made at its address differ
   int dof = 0;
   std::vector<int> arm_qpos, arm_dof, arm_act;
   std::vector<double> effort;
@@ -492,6 +494,8 @@ std::unique_ptr<SimWorld::Impl> SimWorld::compile(const Shared& S, const std::ve
     mj_deleteVFS(vfs.get());
   }
   if (!I.m) throw InputError(scene_xml, std::string("MuJoCo rejected the scene with ") + S.spec.name + " mounted: " + err);
+  static std::atomic<uint64_t> serials{0};
+  I.serial = ++serials;
   I.d = mj_makeData(I.m);
   I.scene_option = I.m->opt;
   mjModel* m = I.m;
@@ -717,6 +721,7 @@ void SimWorld::setMocapPose(const std::string& name, const Pose& T) {
 
 const mjModel_* SimWorld::mujocoModel() const { return impl_->m; }
 mjData_* SimWorld::mujocoData() const { return impl_->d; }
+uint64_t SimWorld::modelSerial() const { return impl_->serial; }
 const std::vector<unsigned char>& SimWorld::geomLabels() const { return impl_->geom_label; }
 
 int SimWorld::numObstacles() const { return static_cast<int>(impl_->obstacle_body.size()); }

@@ -210,6 +210,8 @@ class SimWorld {
   // reads them), and each geom's SegmentLabel.
   const mjModel_* mujocoModel() const;
   mjData_* mujocoData() const;
+  /// The current model's number, unique in the process (caches key on it, not on the pointer).
+  uint64_t modelSerial() const;
   const std::vector<unsigned char>& geomLabels() const;
 
  private:

@@ -59,7 +59,10 @@ TEST(ParamSet, ErrorsNameFileLineColumnAndExpectation) {
   const std::string h = write("a:\n  n: 2.5\n");
   EXPECT_THAT(errorOf([&] { ParamSet(decls()).loadYamlFile(h); }), ::testing::HasSubstr("'a.n' expects an integer, got '2.5'"));
   const std::string i = write("a: [1, 2]\n");
-  EXPECT_THAT(errorOf([&] { ParamSet(decls()).loadYamlFile(i); }), ::testing::HasSubstr("'a' expects a single value, got a list"));
+  EXPECT_THAT(errorOf([&] { ParamSet(decls()).loadYamlFile(i); }),
+              ::testing::HasSubstr(":1:1: 'a' is a section (a.n, a.v, a.b.flag): expected a map of its keys under it, got a list"));
+  const std::string i2 = write("a:\n  n: [1, 2]\n");
+  EXPECT_THAT(errorOf([&] { ParamSet(decls()).loadYamlFile(i2); }), ::testing::HasSubstr("'a.n' expects a single value, got a list"));
   EXPECT_THAT(errorOf([&] { ParamSet(decls()).set("a.v", "nan", "--set a.v"); }), ::testing::HasSubstr("--set a.v: 'a.v' expects a number, got 'nan'"));
 }
 
@@ -70,6 +73,32 @@ TEST(ParamSet, ResolvedYamlReloadsToTheSameValues) {
   ParamSet q(decls());
   q.loadYamlFile(write(p.toYaml()));
   for (const auto& d : decls()) EXPECT_EQ(p.getString(d.key), q.getString(d.key)) << d.key;
+}
+
+TEST(ParamSet, InputIsCheckedWhereItEnters) {
+  // A key given twice: YAML forbids it, and a reader that kept one would hide the other.
+  const std::string dup = write("name: a\na:\n  n: 2\n  v: 0.1\n  n: 3\n");
+  EXPECT_THAT(errorOf([&] { ParamSet(decls()).loadYamlFile(dup); }),
+              ::testing::MatchesRegex(".*\\.yaml:5:3: duplicate key 'a\\.n' \\(first at line 3; a key is given once\\)"));
+  const std::string top = write("name: a\nmode: one\nname: b\n");
+  EXPECT_THAT(errorOf([&] { ParamSet(decls()).loadYamlFile(top); }), ::testing::HasSubstr(":3:1: duplicate key 'name' (first at line 1"));
+  // A section given a value says what it is, not "unknown key".
+  const std::string scalar = write("a: 5\n");
+  EXPECT_THAT(errorOf([&] { ParamSet(decls()).loadYamlFile(scalar); }),
+              ::testing::HasSubstr(":1:1: 'a' is a section (a.n, a.v, a.b.flag): expected a map of its keys under it, got the value '5'"));
+  // A value given a map.
+  const std::string map = write("name:\n  x: 1\n");
+  EXPECT_THAT(errorOf([&] { ParamSet(decls()).loadYamlFile(map); }), ::testing::HasSubstr(":1:1: 'name' expects a single value, got a map"));
+  // Bytes that are not UTF-8, in a file (Latin-1 e-acute) and through --set: the place and the key.
+  const std::string latin1 = write("name: ok\na:\n  v: 0.1\n  n: 2 # caf\xe9\n");
+  EXPECT_THAT(errorOf([&] { ParamSet(decls()).loadYamlFile(latin1); }),
+              ::testing::HasSubstr(":4:13: the line of 'a.n' is not valid UTF-8 (byte 0xE9; expected UTF-8 text)"));
+  EXPECT_THAT(errorOf([&] { ParamSet(decls()).set("name", "r\xc3\x28sult", "--set name"); }),
+              ::testing::HasSubstr("--set name: the value of 'name' is not valid UTF-8 (byte 0xC3 at column 2"));
+  // Real UTF-8 passes.
+  ParamSet ok(decls());
+  ok.set("name", "caf\xc3\xa9 \xe2\x9c\x93", "--set name");
+  EXPECT_EQ(ok.getString("name"), "caf\xc3\xa9 \xe2\x9c\x93");
 }
 
 }  // namespace

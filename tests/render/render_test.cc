@@ -134,6 +134,60 @@ TEST(Render, DepthAndPixelsMatchTheSceneGeometry) {
   EXPECT_GT(robot, 1000);
 }
 
+// Near things are drawn: MuJoCo scales its clip planes by the model's extent, which objects
+// parked far below the floor stretch to a hundred metres (near plane ~1 m: the arm vanished from
+// the overhead camera and the wrist camera saw nothing). And the wrist camera looks along the
+// fingers, into the bin.
+TEST(Render, TheOverheadCameraShowsTheArmAndTheWristCameraTheBin) {
+  Scene s;
+  const Pose T_world_tcp = s.world->tcpPose();
+  {
+    const CameraModel cam = renderer().camera(*s.world, "overhead_camera", 640, 480, "(test)");
+    const Frame f = renderer().render(*s.world, cam, kDepth | kSegmentation);
+    long robot = 0;
+    for (uint8_t l : f.segmentation) robot += l == kSegmentRobot;
+    // Measured: 16,113 pixels (5.2%) at home; with the planes scaled by the parked objects' extent,
+    // 4,808 (the base and the links' far sides only).
+    EXPECT_GT(robot, 640 * 480 / 50) << "the arm shows from above";
+    // Above the TCP (between the fingertips) the ray meets the arm: the robot's label, at a depth
+    // in front of the TCP, within the hand and last link's length of it (0.35 m; measured 0.19 m:
+    // link 7 over the wrist).
+    const Vec3 c = cam.project(T_world_tcp.translation());
+    const int u = static_cast<int>(std::lround(c.x())), r = static_cast<int>(std::lround(c.y()));
+    ASSERT_TRUE(u >= 0 && u < 640 && r >= 0 && r < 480) << "the TCP is in view";
+    const size_t i = static_cast<size_t>(r) * 640 + static_cast<size_t>(u);
+    EXPECT_EQ(f.segmentation[i], kSegmentRobot);
+    EXPECT_LT(f.depth[i], c.z());
+    EXPECT_GT(f.depth[i], c.z() - 0.35);
+  }
+  {
+    const CameraModel cam = renderer().camera(*s.world, "wrist_camera", 320, 240, "(test)");
+    // It looks along the fingers (the TCP's z), down at home.
+    EXPECT_GT(cam.T_world_camera.linear().col(2).dot(T_world_tcp.linear().col(2)), 0.99);
+    const Frame f = renderer().render(*s.world, cam, kDepth | kSegmentation);
+    // The bin region's centre (no cube there) is seen on the bin's floor, to a millimetre.
+    const Pose T_bin = s.world->site("bin_region").first;
+    Vec3 floor = T_bin.translation();
+    floor.z() = s.world->surfaceBelow(floor + Vec3(0, 0, 0.2), -1);
+    const Vec3 c = cam.project(floor);
+    const int u = static_cast<int>(std::lround(c.x())), r = static_cast<int>(std::lround(c.y()));
+    ASSERT_TRUE(c.z() > 0 && u >= 0 && u < 320 && r >= 0 && r < 240) << "the bin is in the wrist camera's view";
+    const size_t i = static_cast<size_t>(r) * 320 + static_cast<size_t>(u);
+    EXPECT_EQ(f.segmentation[i], kSegmentScene);
+    EXPECT_LT((cam.unproject(u, r, f.depth[i]) - floor).norm(), 0.002) << "depth " << f.depth[i] << " m, the floor at " << c.z() << " m";
+    // Both cubes show in it.
+    long cube[2] = {0, 0}, empty = 0;
+    for (size_t k = 0; k < f.segmentation.size(); ++k) {
+      if (f.segmentation[k] == kSegmentObject0) ++cube[0];
+      if (f.segmentation[k] == kSegmentObject0 + 1) ++cube[1];
+      empty += f.depth[k] == 0;  // nothing hit: sky
+    }
+    EXPECT_GT(cube[0], 100);
+    EXPECT_GT(cube[1], 100);
+    EXPECT_LT(empty, static_cast<long>(f.depth.size()) / 10) << "the wrist camera looks at the cell, not at the sky";
+  }
+}
+
 TEST(Render, RenderingLeavesTheWorldAsItWas) {
   Scene s;
   const VecX q = s.world->armPositions();
@@ -211,7 +265,9 @@ TEST(Render, ATrialRenderedAgainMatchesItsLineAndWritesItsImages) {
   const auto r = runMinimanip("render " + out + " --trial 2 --set render.keyframes=place --set render.video=false");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_THAT(r.out, HasSubstr("Replay matches trial 2"));
-  const fs::path dir = fs::path(out) / "renders/trial_000002";
+  // A folder of its own: the campaign's renders/ are left as the campaign made them.
+  const fs::path dir = fs::path(out) / "replays/trial_000002";
+  EXPECT_FALSE(fs::exists(fs::path(out) / "renders/trial_000002"));
   const cv::Mat rgb = cv::imread((dir / "01_place.png").string(), cv::IMREAD_UNCHANGED);
   EXPECT_EQ(rgb.cols, 640);
   EXPECT_EQ(rgb.rows, 480);
@@ -234,6 +290,9 @@ TEST(Render, ATrialRenderedAgainMatchesItsLineAndWritesItsImages) {
   const auto differs = runMinimanip("render " + out + " --trial 2 --set render.keyframes=end --set render.video=false");
   EXPECT_EQ(differs.code, 1) << differs.out;
   EXPECT_THAT(differs.out, HasSubstr("place_position_error: 0.5 recorded"));
+  // The second replay's frames only: the first one's are gone, not mixed in.
+  EXPECT_TRUE(fs::exists(dir / "01_end.png"));
+  EXPECT_FALSE(fs::exists(dir / "01_place.png"));
 
   // Bad input: a trial the campaign did not run, a setting that is not a render setting.
   const auto missing = runMinimanip("render " + out + " --trial 7");
