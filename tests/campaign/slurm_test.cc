@@ -45,22 +45,54 @@ TEST(Slurm, AShardedArrayCampaignMergedEqualsALocalRun) {
   const std::string conf = "SLURM_CONF=" + cluster + "/slurm/slurm.conf ";
   const std::string args = " experiments/quickstart.yaml --trials 9 --seed 4 --set hardware=mock --set bt.log=all";
   const fs::path campaign = d.path() / "campaign";
-  const int submitted = shell(conf + "tools/slurm/submit --wait 3 " + campaign.string() + args, &said);
-  shell("tools/slurm/local_cluster stop " + cluster);
+  const std::string submit = conf + "tools/slurm/submit --wait 3 " + campaign.string();
+  struct Stop {  // the cluster is stopped whatever the test's end
+    std::string cluster;
+    ~Stop() { shell("tools/slurm/local_cluster stop " + cluster); }
+  } stop{cluster};
+  const int submitted = shell(submit + args, &said);
   ASSERT_EQ(submitted, 0) << said;
   for (int k = 0; k < 3; ++k) EXPECT_EQ(readTrials(campaign / ("shard_" + std::to_string(k))).size(), 3u) << "shard " << k;
   ASSERT_EQ(runMinimanip("run" + args + " --set progress=none --out " + (d.path() / "local").string()).code, 0);
-  const auto merged = readTrials(campaign / "merged"), local = readTrials(d.path() / "local");
-  ASSERT_EQ(merged.size(), 9u);
-  ASSERT_EQ(local.size(), 9u);
-  for (size_t i = 0; i < merged.size(); ++i) {
-    EXPECT_EQ(outcomeFields(merged[i]), outcomeFields(local[i])) << "trial " << i;
-    EXPECT_TRUE(fs::exists(campaign / "merged" / merged[i]["bt_log"].get<std::string>()));
+  const auto local = readTrials(d.path() / "local");
+  auto expectMergedEqualsLocal = [&] {
+    const auto merged = readTrials(campaign / "merged");
+    ASSERT_EQ(merged.size(), 9u);
+    ASSERT_EQ(local.size(), 9u);
+    for (size_t i = 0; i < merged.size(); ++i) {
+      EXPECT_EQ(outcomeFields(merged[i]), outcomeFields(local[i])) << "trial " << i;
+      EXPECT_TRUE(fs::exists(campaign / "merged" / merged[i]["bt_log"].get<std::string>()));
+    }
+    const json a = json::parse(std::ifstream(campaign / "merged" / "summary.json"));
+    const json b = json::parse(std::ifstream(d.path() / "local" / "summary.json"));
+    for (const char* k : {"trials", "successes", "objects_placed", "collision_events", "sim_time", "place_position_error_mm"})
+      EXPECT_EQ(a[k], b[k]) << k;
+  };
+  expectMergedEqualsLocal();
+
+  // Submitted again, the same: it resumes (nothing left to run) and the merge is made again.
+  ASSERT_EQ(shell(submit + args, &said), 0) << said;
+  EXPECT_THAT(said, ::testing::HasSubstr("resuming the submission in " + campaign.string()));
+  expectMergedEqualsLocal();
+
+  // A shard that fails (its folder's record broken): --wait names it, says the merge never ran,
+  // and exits 1.
+  std::ofstream(campaign / "shard_1" / "campaign.json") << "{";
+  EXPECT_EQ(shell(submit + args, &said), 1) << said;
+  EXPECT_THAT(said, ::testing::MatchesRegex("(.|\n)*shard 1 \\(job [0-9]+_1\\) did not succeed: FAILED, exit code 2(.|\n)*"));
+  EXPECT_THAT(said, ::testing::HasSubstr("not a campaign record"));  // the shard's own message, from its log
+  EXPECT_THAT(said, ::testing::MatchesRegex("(.|\n)*the merge job [0-9]+ never ran(.|\n)*"));
+  EXPECT_THAT(said, ::testing::Not(::testing::HasSubstr("shard 0 ")));
+
+  // Other arguments into the same folder are refused before anything is submitted.
+  EXPECT_EQ(shell(submit + args + " --trials 12", &said), 2) << said;
+  EXPECT_THAT(said, ::testing::HasSubstr(campaign.string() + " holds another submission"));
+
+  // No cluster named: the message says how to name one.
+  if (!fs::exists("/etc/slurm/slurm.conf")) {
+    EXPECT_EQ(shell("env -u SLURM_CONF tools/slurm/submit 3 " + (d.path() / "other").string() + args, &said), 2) << said;
+    EXPECT_THAT(said, ::testing::HasSubstr("export SLURM_CONF="));
   }
-  const json a = json::parse(std::ifstream(campaign / "merged" / "summary.json"));
-  const json b = json::parse(std::ifstream(d.path() / "local" / "summary.json"));
-  for (const char* k : {"trials", "successes", "objects_placed", "collision_events", "sim_time", "place_position_error_mm"})
-    EXPECT_EQ(a[k], b[k]) << k;
 }
 
 // merge refuses folders that do not make one campaign: exit 2, nothing written.
