@@ -14,6 +14,7 @@
 #include "campaign/record.h"
 #include "campaign/stats.h"
 #include "core/error.h"
+#include "core/file_io.h"
 
 namespace mm {
 namespace {
@@ -106,7 +107,9 @@ Run readResults(const fs::path& dir, json* summary_out) {
 
 json baselineJson(const Run& r) {
   json trials = json::array();
-  for (const auto& [i, x] : r.trials) trials.push_back({{"trial", i}, {"success", x.success}, {"counters", x.counters}, {"timings", x.timings}});
+  // Deterministic fields only: wall timings measured on another day, under another load, are no
+  // baseline for today's (tools/timing_gate compares timings side by side, in one job).
+  for (const auto& [i, x] : r.trials) trials.push_back({{"trial", i}, {"success", x.success}, {"counters", x.counters}});
   return {{"minimanip_gate_baseline", kBaselineFormat}, {"experiment", r.experiment}, {"seed", r.seed},
           {"command", r.command}, {"cpu", r.cpu}, {"config", r.config}, {"trials", trials}};
 }
@@ -128,7 +131,7 @@ Run readBaselineFile(const fs::path& p) {
       Sample x;
       x.success = t.at("success").get<bool>();
       for (const std::string& c : gateCounterNames()) x.counters[c] = t.at("counters").at(c).get<double>();
-      for (const std::string& c : gateTimingNames()) x.timings[c] = t.at("timings").at(c).get<double>();
+      // Timings an older baseline file holds are not read (see baselineJson).
       const unsigned long index = t.at("trial").get<unsigned long>();
       if (!r.trials.emplace(index, x).second)
         throw InputError(p.string(), "trial " + std::to_string(index) + " appears twice");
@@ -210,21 +213,6 @@ double median(std::vector<double> v) {
   return n == 0 ? 0 : n % 2 ? v[n / 2] : (v[n / 2 - 1] + v[n / 2]) / 2;
 }
 
-double sdOfLogs(const std::vector<double>& a, const std::vector<double>& b) {
-  // Pooled standard deviation of the logs (each sample about its own mean).
-  double ss = 0;
-  long dof = 0;
-  for (const auto* v : {&a, &b}) {
-    if (v->size() < 2) continue;
-    double mean = 0;
-    for (double x : *v) mean += std::log(x);
-    mean /= v->size();
-    for (double x : *v) ss += (std::log(x) - mean) * (std::log(x) - mean);
-    dof += static_cast<long>(v->size()) - 1;
-  }
-  return dof > 0 ? std::sqrt(ss / dof) : 0;
-}
-
 void requireChoices(const std::vector<std::string>& got, const std::vector<std::string>& allowed, const std::string& where) {
   for (const std::string& g : got)
     if (std::find(allowed.begin(), allowed.end(), g) == allowed.end()) {
@@ -234,20 +222,6 @@ void requireChoices(const std::vector<std::string>& got, const std::vector<std::
     }
 }
 
-/// Writes `text` to a temporary file beside `p`, then renames it over `p`. Throws InputError (the
-/// path and the system's reason) on any failure, filesystem errors included.
-void writeAtomically(const fs::path& p, const std::string& text) {
-  const fs::path tmp = p.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << text;
-    out.close();
-    if (!out) throw InputError(tmp.string(), "cannot be written");
-  }
-  std::error_code ec;
-  fs::rename(tmp, p, ec);
-  if (ec) throw InputError(p.string(), "cannot be written (" + ec.message() + ")");
-}
 
 /// The keys whose values differ between two configuration fingerprints, but those `allowed` and the
 /// test-only planner slowdown (it stands in for a slower build); "" when they agree. A key the
@@ -262,7 +236,7 @@ std::string configDifferences(const json& base, const json& run, const std::vect
   std::string said;
   int n = 0;
   for (const std::string& k : keys) {
-    if (k == "planning.test_slowdown" || std::find(allowed.begin(), allowed.end(), k) != allowed.end()) continue;
+    if (k == "planning.test_slowdown" || k == "planning.test_time_factor" || std::find(allowed.begin(), allowed.end(), k) != allowed.end()) continue;
     if (!base.contains(k) && run.contains(k) && run.at(k).is_string() && defaults.count(k) &&
         run.at(k).get<std::string>() == defaults.at(k))
       continue;
@@ -310,9 +284,9 @@ void GateThresholds::declare(ConfigArchive& a) {
          "deterministic per-trial counters whose sum over the trials both runs hold may not grow (exact: no noise to allow for)");
   a.value("counter_tolerance", counter_tolerance, {0, 10}, "", "relative growth of a counter's sum allowed (0: none)");
   a.list("timings", timings, gateTimingNames(),
-         "per-trial wall timings compared by the Mann-Whitney U test and the ratio of medians (both must show a slowdown)");
-  a.value("max_ratio", max_ratio, {1, 100}, "", "a timing's median ratio (this run / baseline) above this, and significant, fails");
-  a.value("timing_alpha", timing_alpha, {1e-9, 0.5}, "", "Mann-Whitney's two-sided significance level for timings");
+         "per-trial wall timings, each trial against the same trial of the baseline: the median of their ratios and the Wilcoxon signed-rank test (both must show a slowdown)");
+  a.value("max_ratio", max_ratio, {1, 100}, "", "the median of a timing's per-trial ratios (this run / baseline) above this, and significant, fails");
+  a.value("timing_alpha", timing_alpha, {1e-9, 0.5}, "", "the Wilcoxon signed-rank test's two-sided significance level for timings");
   a.value("timing_same_cpu", timing_same_cpu, "compare wall timings only with a baseline from the same CPU model (else skipped, said so)");
   a.list("config_may_differ", config_may_differ, {},
          "experiment keys (and robot, scene, tree: their files) the baseline's configuration may differ in; any other "
@@ -337,7 +311,7 @@ GateResult runGate(const GateOptions& o) {
   const Run run = readResults(dir, &summary);
   GateResult result;
   if (!o.save_baseline.empty()) {
-    writeAtomically(o.save_baseline, baselineJson(run).dump(1) + "\n");
+    writeFileAtomically(o.save_baseline, baselineJson(run).dump(1) + "\n");
     result.text = "Baseline of " + std::to_string(run.trials.size()) + " trials written to " + o.save_baseline + "\n";
     if (o.thresholds.empty()) return result;
   }
@@ -475,37 +449,45 @@ GateResult runGate(const GateOptions& o) {
       c.detects = t.counter_tolerance > 0 ? "growth above " + fmt(100 * t.counter_tolerance, 2) + "%" : "any growth (exact)";
       checks.push_back(c);
     }
-    // Wall timings: Mann-Whitney U and the ratio of medians, both needed to fail.
+    // Wall timings, trial by trial: the median ratio and the signed-rank test, both needed to fail.
     const bool same_cpu = base.cpu == run.cpu;
     for (const std::string& name : t.timings) {
       Check c;
       c.name = "timing." + name;
-      std::vector<double> xb, xr;
-      for (unsigned long i : common) {
+      // The same trials on both sides: each trial's ratio, so that what differs between trials
+      // (one needs a long detour, the next none) cancels and only the builds' difference is left.
+      std::vector<double> log_ratio;
+      const bool timed = !base.trials.empty() && !base.trials.begin()->second.timings.empty();
+      for (unsigned long i : timed ? common : std::vector<unsigned long>{}) {
         const double b = base.trials.at(i).timings.at(name), r = run.trials.at(i).timings.at(name);
-        if (b > 0) xb.push_back(b);
-        if (r > 0) xr.push_back(r);
+        if (b > 0 && r > 0) log_ratio.push_back(std::log(r / b));
       }
-      if (t.timing_same_cpu && !same_cpu) {
+      if (!timed) {
+        c.verdict = "skip";
+        c.detail = "the baseline " + base.source + " is a stored file, which holds no wall timings (tools/timing_gate compares "
+                   "timings side by side, the base run beside this one)";
+      } else if (t.timing_same_cpu && !same_cpu) {
         c.verdict = "skip";
         c.detail = "baseline ran on '" + base.cpu + "', this run on '" + run.cpu + "' (timing_same_cpu)";
-      } else if (xb.size() < 8 || xr.size() < 8) {
+      } else if (log_ratio.size() < 8) {
         c.verdict = "skip";
-        c.detail = "fewer than 8 timed trials on a side (" + std::to_string(xr.size()) + " vs " + std::to_string(xb.size()) + ")";
+        c.detail = "fewer than 8 trials timed on both sides (" + std::to_string(log_ratio.size()) + ")";
       } else {
-        const MannWhitney mw = mannWhitneyU(xr, xb);
-        const double ratio = median(xr) / median(xb);
-        const bool slower = ratio > t.max_ratio && mw.p < t.timing_alpha;
+        const SignedRank w = wilcoxonSignedRank(log_ratio);
+        const double ratio = std::exp(median(log_ratio));
+        const bool slower = ratio > t.max_ratio && w.p < t.timing_alpha;
         c.verdict = slower ? "fail" : "pass";
-        c.detail = "median " + fmtg(median(xr)) + " s vs baseline " + fmtg(median(xb)) + " s, ratio " + fmt(ratio, 3) +
-                   " (limit " + fmt(t.max_ratio, 2) + "), Mann-Whitney p = " + fmtg(mw.p) + " (alpha " + fmtg(t.timing_alpha) +
-                   ")";
-        const double log_sd = sdOfLogs(xr, xb);
-        const double mdr = minimumDetectableRatio(static_cast<long>(xr.size()), static_cast<long>(xb.size()), log_sd, t.timing_alpha);
+        c.detail = "median of the " + std::to_string(log_ratio.size()) + " trials' ratios (this run / baseline) " + fmt(ratio, 3) +
+                   " (limit " + fmt(t.max_ratio, 2) + "), Wilcoxon signed-rank p = " + fmtg(w.p) + " (alpha " + fmtg(t.timing_alpha) + ")";
+        double mean = 0, ss = 0;
+        for (double x : log_ratio) mean += x / static_cast<double>(log_ratio.size());
+        for (double x : log_ratio) ss += (x - mean) * (x - mean);
+        const double sd = std::sqrt(ss / static_cast<double>(log_ratio.size() - 1));
+        const double mdr = minimumDetectablePairedRatio(static_cast<long>(log_ratio.size()), sd, t.timing_alpha);
         // Failing needs both: the observed ratio past the limit (a true ratio R is seen above the
         // limit with probability 0.8 when log R = log limit + z_0.8 se) and the test significant
         // (R >= mdr). The larger of the two is what this sample detects at 80% power.
-        const double se = log_sd * std::sqrt(1.0 / xr.size() + 1.0 / xb.size());
+        const double se = sd / std::sqrt(static_cast<double>(log_ratio.size()));
         const double at_limit = t.max_ratio * std::exp(0.8416212335729143 * se);
         c.detects = "a slowdown of " + fmt(std::max(mdr, at_limit), 2) + "x at 80% power (the limit " + fmt(t.max_ratio, 2) +
                     "x plus this sample's noise; the test alone resolves " + fmt(mdr, 2) + "x)";
@@ -538,8 +520,8 @@ GateResult runGate(const GateOptions& o) {
   result.json = out.dump(2) + "\n";
   // The verdict stands whether or not its record can be written (a read-only results folder).
   try {
-    writeAtomically(dir / "gate.json", result.json);
-  } catch (const InputError& e) {
+    writeFileAtomically(dir / "gate.json", result.json);
+  } catch (const OutputError& e) {
     result.text += std::string("warning: gate.json not written: ") + e.what() + "\n";
   }
   return result;

@@ -2,9 +2,11 @@
 // judged for CI. Yields against thresholds by their Wilson 95% lower bound; summary values against
 // limits; against a baseline run on the same seeds: paired success by McNemar's exact test,
 // deterministic work counters (collision checks, root ticks, grasp candidates, simulated time)
-// compared exactly, and wall timings by the Mann–Whitney U test together with a ratio of medians
-// (noise alone must not fail a gate; both a significant and a large slowdown do). Each check states
-// the smallest change its sample could detect. Exit codes: 0 pass, 1 regression, 2 bad input.
+// compared exactly, and wall timings trial by trial (the median of the per-trial ratios and the
+// Wilcoxon signed-rank test: noise alone must not fail a gate; both a significant and a large
+// slowdown do) against a baseline folder run beside this one (tools/timing_gate); a stored baseline
+// file holds no timings. Each check states the smallest change its sample could detect. Exit
+// codes: 0 pass, 1 regression, 2 bad input.
 #pragma once
 #include <string>
 #include <vector>

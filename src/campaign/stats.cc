@@ -63,44 +63,76 @@ double mcnemarExactP(long b, long c) {
   return std::min(1.0, 2 * tail);
 }
 
-MannWhitney mannWhitneyU(const std::vector<double>& x, const std::vector<double>& y) {
-  MannWhitney r;
-  const double n1 = x.size(), n2 = y.size(), n = n1 + n2;
-  if (x.empty() || y.empty()) return r;
-  // Ranks of the pooled sample, ties given their mean rank.
-  std::vector<std::pair<double, int>> all;
-  for (double v : x) all.push_back({v, 0});
-  for (double v : y) all.push_back({v, 1});
-  std::sort(all.begin(), all.end());
-  double rank_sum_x = 0, tie_term = 0;
-  for (size_t i = 0; i < all.size();) {
+SignedRank wilcoxonSignedRank(const std::vector<double>& differences) {
+  SignedRank r;
+  std::vector<double> a;
+  for (double d : differences)
+    if (d != 0 && std::isfinite(d)) a.push_back(d);
+  const size_t n = a.size();
+  r.n = static_cast<long>(n);
+  if (n == 0) return r;
+  std::vector<size_t> order(n);
+  for (size_t i = 0; i < n; ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](size_t i, size_t j) { return std::abs(a[i]) < std::abs(a[j]); });
+  // Doubled ranks (integers even with ties: a tie group's mean rank times two).
+  std::vector<long> rank2(n);
+  double tie_term = 0;
+  for (size_t i = 0; i < n;) {
     size_t j = i;
-    while (j < all.size() && all[j].first == all[i].first) ++j;
-    const double mean_rank = (i + 1 + j) / 2.0, t = static_cast<double>(j - i);
-    for (size_t k = i; k < j; ++k)
-      if (all[k].second == 0) rank_sum_x += mean_rank;
+    while (j < n && std::abs(a[order[j]]) == std::abs(a[order[i]])) ++j;
+    const long doubled = static_cast<long>(i + 1 + j);  // 2 x ((i+1) + j) / 2
+    for (size_t k = i; k < j; ++k) rank2[order[k]] = doubled;
+    const double t = static_cast<double>(j - i);
     tie_term += t * t * t - t;
     i = j;
   }
-  r.u = rank_sum_x - n1 * (n1 + 1) / 2;
-  const double mean = n1 * n2 / 2, var = n1 * n2 / 12 * ((n + 1) - tie_term / (n * (n - 1)));
+  long w2 = 0, total2 = 0;
+  for (size_t i = 0; i < n; ++i) {
+    total2 += rank2[i];
+    if (a[i] > 0) w2 += rank2[i];
+  }
+  r.w_plus = w2 / 2.0;
+  if (n <= 50) {
+    // The number of sign assignments giving each doubled sum, by dynamic programming (2^n of them).
+    std::vector<double> ways(static_cast<size_t>(total2) + 1, 0.0);
+    ways[0] = 1;
+    for (size_t i = 0; i < n; ++i)
+      for (long s = total2; s >= rank2[i]; --s) ways[static_cast<size_t>(s)] += ways[static_cast<size_t>(s - rank2[i])];
+    const double all = std::ldexp(1.0, static_cast<int>(n));
+    // Two-sided: the tail at least as far from the centre as the observed sum, both sides.
+    const long lo = std::min(w2, total2 - w2);
+    double tail = 0;
+    for (long s = 0; s <= lo; ++s) tail += ways[static_cast<size_t>(s)];
+    r.p = std::min(1.0, 2 * tail / all);
+    return r;
+  }
+  const double nn = static_cast<double>(n);
+  const double mean = nn * (nn + 1) / 4, var = nn * (nn + 1) * (2 * nn + 1) / 24 - tie_term / 48;
   if (var <= 0) return r;
-  const double d = r.u - mean;
-  r.z = (std::abs(d) > 0.5 ? d - std::copysign(0.5, d) : 0.0) / std::sqrt(var);
-  r.p = std::erfc(std::abs(r.z) / std::sqrt(2.0));
+  const double d = r.w_plus - mean;
+  const double z = (std::abs(d) > 0.5 ? d - std::copysign(0.5, d) : 0.0) / std::sqrt(var);
+  r.p = std::erfc(std::abs(z) / std::sqrt(2.0));
   return r;
 }
 
-double minimumDetectableRatio(long n1, long n2, double log_sd, double alpha) {
-  if (n1 <= 0 || n2 <= 0) return INFINITY;
-  // z of a two-sided alpha: erfc(z / sqrt 2) = alpha, by bisection (erfc falls monotonically).
+namespace {
+
+// z of a two-sided alpha: erfc(z / sqrt 2) = alpha, by bisection (erfc falls monotonically).
+double zTwoSided(double alpha) {
   double lo = 0, hi = 40;
   for (int i = 0; i < 200; ++i) {
     const double mid = (lo + hi) / 2;
     (std::erfc(mid / std::sqrt(2.0)) > alpha ? lo : hi) = mid;
   }
-  const double z_alpha = (lo + hi) / 2, z_power = 0.8416212335729143;  // power 0.8
-  return std::exp((z_alpha + z_power) * log_sd * std::sqrt(1.0 / n1 + 1.0 / n2));
+  return (lo + hi) / 2;
 }
+
+}  // namespace
+
+double minimumDetectablePairedRatio(long n, double log_ratio_sd, double alpha) {
+  if (n <= 0) return INFINITY;
+  return std::exp((zTwoSided(alpha) + 0.8416212335729143) * log_ratio_sd / std::sqrt(static_cast<double>(n)));
+}
+
 
 }  // namespace mm

@@ -20,19 +20,20 @@ Moments moments(const std::vector<double>& v);
 /// McNemar 1947; the exact form is the binomial test on b of b + c.
 double mcnemarExactP(long b, long c);
 
-struct MannWhitney {
-  double u = 0;  ///< U of the first sample (pairs where it is larger, ties 1/2)
-  double z = 0;  ///< normal approximation, tie-corrected, continuity-corrected
-  double p = 1;  ///< two-sided
+struct SignedRank {
+  double w_plus = 0;  ///< the sum of the ranks of the positive differences (ties: mean ranks)
+  long n = 0;         ///< the nonzero differences ranked
+  double p = 1;       ///< two-sided
 };
-/// The Mann–Whitney U test of two independent samples (Mann & Whitney 1947), normal approximation
-/// with the tie correction; meant for samples of 8 or more each.
-MannWhitney mannWhitneyU(const std::vector<double>& x, const std::vector<double>& y);
+/// The Wilcoxon signed-rank test of paired differences (zeros dropped; Wilcoxon 1945): the exact
+/// distribution of W+ for up to 50 pairs (ranks doubled to integers, so tied ranks count too),
+/// else the normal approximation with the tie correction.
+SignedRank wilcoxonSignedRank(const std::vector<double>& differences);
 
-/// The smallest ratio of medians a two-sample comparison of log timings with these sizes and this
-/// spread (standard deviation of the logs) detects at this two-sided alpha with power 0.8 (the
-/// normal approximation; Mann–Whitney's efficiency against it is 3/pi ~ 0.955, ignored).
-double minimumDetectableRatio(long n1, long n2, double log_sd, double alpha = 0.05);
+/// The smallest ratio a paired comparison of `n` log ratios (the same trials timed on both sides)
+/// with this standard deviation detects at this two-sided alpha with power 0.8 (the normal
+/// approximation; the signed-rank test's efficiency against it, 3/pi ~ 0.955, ignored).
+double minimumDetectablePairedRatio(long n, double log_ratio_sd, double alpha = 0.05);
 
 /// Running moments in constant memory whose result does not depend on the order of the values
 /// (a campaign's trials arrive in any order from its workers, its shards in any order at a merge):

@@ -77,6 +77,9 @@ void PlannerOptions::declare(ConfigArchive& a) {
   a.value("test_slowdown", test_slowdown, {1, 1000}, "",
           "test only: the planner checks each state this many times (a deliberately slowed planner: the same paths, more "
           "collision checks and wall time; the gate's test)");
+  a.value("test_time_factor", test_time_factor, {1, 1000}, "",
+          "test only: each planning call takes this many times its wall time (busy-waiting the rest): a planner that many "
+          "times slower, with the same paths and counters (the side-by-side timing gate's test)");
 }
 
 std::vector<std::string> plannerNames() {
@@ -104,6 +107,17 @@ PlanResult planJointPath(const RobotModel& robot, CollisionChecker& checker, con
                          uint64_t seed, const PlannerOptions& o) {
   static std::once_flag quiet;
   std::call_once(quiet, [] { ompl::msg::setLogLevel(ompl::msg::LOG_ERROR); });
+  // test_time_factor: the call's wall time stretched to that many times, on every way out.
+  struct Stretch {
+    double factor;
+    std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
+    ~Stretch() {
+      if (factor <= 1) return;
+      const auto until = t0 + (std::chrono::steady_clock::now() - t0) * factor;
+      while (std::chrono::steady_clock::now() < until) {
+      }
+    }
+  } stretch{o.test_time_factor};
   PlanResult r;
   const long checks0 = checker.checks();
   if (!checker.isValid(start)) {

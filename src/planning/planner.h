@@ -28,6 +28,9 @@ struct PlannerOptions {
   /// Test only: each state the planner validates is checked this many times (a deliberately slowed
   /// planner, for the gate's test: same paths, more collision checks and wall time).
   int test_slowdown = 1;
+  /// Test only: each planning call takes this many times its wall time (the rest spent waiting,
+  /// busy): a planner N times slower with the same paths and counters, for the timing gate's test.
+  double test_time_factor = 1.0;
 };
 
 struct PlanResult {
