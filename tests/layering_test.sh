@@ -1,15 +1,15 @@
 #!/usr/bin/env bash
-# Dependencies point down (README "Architecture"): the layers below the simulator never include
+# Dependencies point down (docs/architecture.md): the layers below the simulator never include
 # MuJoCo or sim/, planning never includes MuJoCo, and no header of ours pulls in MuJoCo, OMPL, FCL
 # or OpenCV (they stay in the .cc files of the layer that needs them).
 set -u
 cd "$(dirname "$0")/../src"
 fail=0
 for layer in core robot kinematics planning grasp perception; do
-  hits=$(grep -nE '#include [<"](mujoco/|sim/|render/|task/|bt/|campaign/|cli/)' "$layer"/*.h "$layer"/*.cc 2>/dev/null)
+  hits=$(grep -nE '#include [<"](mujoco/|sim/|render/|task/|bt/|campaign/|bench/|cli/)' "$layer"/*.h "$layer"/*.cc 2>/dev/null)
   if [ -n "$hits" ]; then echo "layer $layer includes a layer above it or MuJoCo:"; echo "$hits"; fail=1; fi
 done
-hits=$(grep -nE '#include [<"](bt/|faults/|campaign/|cli/|mujoco/)' task/*.h task/*.cc sim/*.h 2>/dev/null)
+hits=$(grep -nE '#include [<"](bt/|faults/|campaign/|cli/|mujoco/)' task/*.h task/*.cc sim/*.h 2>/dev/null | grep -v '^sim/sim_world_impl.h:')
 if [ -n "$hits" ]; then echo "task/ includes the behavior-tree layer, faults/, campaign/, cli/ or MuJoCo:"; echo "$hits"; fail=1; fi
 # Fault injection reaches the task through its hooks and the hardware it wraps: never the tree or MuJoCo.
 hits=$(grep -nE '#include [<"](bt/|campaign/|cli/|mujoco/)' faults/*.h faults/*.cc 2>/dev/null)
@@ -20,10 +20,23 @@ if [ -n "$hits" ]; then echo "render/ includes a layer above it:"; echo "$hits";
 hits=$(grep -nE '#include [<"]render/' sim/*.h sim/*.cc task/*.h task/*.cc 2>/dev/null)
 if [ -n "$hits" ]; then echo "sim/ or task/ includes render/:"; echo "$hits"; fail=1; fi
 for layer in core robot sim render kinematics planning grasp perception task bt faults; do
-  hits=$(grep -nE '#include [<"](campaign/|cli/)' "$layer"/*.h "$layer"/*.cc 2>/dev/null)
-  if [ -n "$hits" ]; then echo "layer $layer includes campaign/ or cli/:"; echo "$hits"; fail=1; fi
+  hits=$(grep -nE '#include [<"](campaign/|bench/|cli/)' "$layer"/*.h "$layer"/*.cc 2>/dev/null)
+  if [ -n "$hits" ]; then echo "layer $layer includes campaign/, bench/ or cli/:"; echo "$hits"; fail=1; fi
 done
-hits=$(grep -nE '#include <(mujoco/|ompl/|fcl/|opencv)' */*.h)
+# The standalone programs (bench/) stand beside campaign/ and share its experiment loading; the
+# campaign never includes them.
+hits=$(grep -nE '#include [<"](bench/|cli/)' campaign/*.h campaign/*.cc 2>/dev/null)
+if [ -n "$hits" ]; then echo "campaign/ includes bench/ or cli/:"; echo "$hits"; fail=1; fi
+hits=$(grep -nE '#include [<"]cli/' bench/*.h bench/*.cc 2>/dev/null)
+if [ -n "$hits" ]; then echo "bench/ includes cli/:"; echo "$hits"; fail=1; fi
+# The task layer's own helpers stay its own.
+hits=$(grep -lE '#include [<"]task/plan_steps.h' */*.h */*.cc | grep -v '^task/')
+if [ -n "$hits" ]; then echo "task/plan_steps.h is internal to task/, included by:"; echo "$hits"; fail=1; fi
+# sim/sim_world_impl.h is SimWorld's insides, shared by its own source files only: the one header
+# that may include MuJoCo, as long as nothing outside sim/ includes it.
+hits=$(grep -nE '#include <(mujoco/|ompl/|fcl/|opencv)' */*.h | grep -v '^sim/sim_world_impl.h:')
 if [ -n "$hits" ]; then echo "heavy headers in our headers:"; echo "$hits"; fail=1; fi
+hits=$(grep -lE '#include [<"]sim/sim_world_impl.h' */*.h */*.cc | grep -v '^sim/')
+if [ -n "$hits" ]; then echo "sim/sim_world_impl.h is internal to sim/, included by:"; echo "$hits"; fail=1; fi
 [ $fail -eq 0 ] && echo "layering ok"
 exit $fail

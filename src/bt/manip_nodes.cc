@@ -1,3 +1,6 @@
+// The manipulation node library in one file on purpose (about 600 lines): each node is a short
+// class over the task layer's actions, and the file reads as the catalogue `minimanip nodes-doc`
+// prints, in its order.
 #include "bt/manip_nodes.h"
 
 #include <algorithm>

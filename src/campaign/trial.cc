@@ -5,8 +5,8 @@
 #include <filesystem>
 
 #include "bt/sqlite_log.h"
-#include "campaign/calibrate.h"
 #include "core/error.h"
+#include "perception/calibration.h"
 #include "bt/trial_runner.h"
 #include "render/image_io.h"
 #include "render/renderer.h"

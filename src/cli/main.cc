@@ -11,12 +11,12 @@
 #include <string>
 #include <vector>
 
-#include "campaign/bench.h"
-#include "campaign/calibrate.h"
+#include "bench/calibrate.h"
+#include "bench/harness_bench.h"
+#include "bench/ik_bench.h"
+#include "bench/plan_bench.h"
 #include "campaign/campaign.h"
 #include "campaign/experiment.h"
-#include "campaign/ik_bench.h"
-#include "campaign/plan_bench.h"
 #include "campaign/record.h"
 #include "campaign/gate.h"
 #include "campaign/report.h"
@@ -137,12 +137,13 @@ int main(int argc, char** argv) {
 
   mm::GateOptions gate_opts;
   CLI::App* gate = app.add_subcommand("gate", "judge a campaign for CI: yields (Wilson lower bounds), limits, and against a baseline "
-                                              "paired success (McNemar), exact work counters and wall timings (Mann-Whitney + ratio); "
+                                              "paired success (McNemar), exact work counters and, against a results folder run beside it, wall timings trial by trial "
+                                              "(median ratio + Wilcoxon signed-rank; tools/timing_gate); "
                                               "exit 0 pass, 1 regression, 2 bad input");
   gate->add_option("results", gate_opts.results_dir, "the campaign's results folder")->required();
   gate->add_option("--thresholds", gate_opts.thresholds, "thresholds file (experiments/gates/*.yaml; keys: minimanip gate-doc)");
   gate->add_option("--baseline", gate_opts.baseline, "a baseline file or results folder (overrides the thresholds' baseline.file)");
-  gate->add_option("--save-baseline", gate_opts.save_baseline, "write the results' baseline file (per-trial success, counters, timings)");
+  gate->add_option("--save-baseline", gate_opts.save_baseline, "write the results' baseline file (per-trial success and work counters: its deterministic fields)");
 
   std::string render_dir;
   uint64_t render_trial = 0;

@@ -5,9 +5,12 @@
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <yaml-cpp/yaml.h>
 
 #include <cmath>
 #include <stdexcept>
+
+#include "core/error.h"
 
 namespace mm {
 namespace {
@@ -155,6 +158,24 @@ AxxbResidual axxbResidual(const std::vector<Pose>& G, const std::vector<Pose>& C
   }
   if (n) r.rotation /= n, r.translation /= n;
   return r;
+}
+
+Pose readExtrinsics(const std::string& path, std::string* camera) {
+  YAML::Node n;
+  try {
+    n = YAML::LoadFile(path);
+  } catch (const YAML::Exception& ex) {
+    throw InputError(path, std::string("cannot read the extrinsics: ") + ex.what());
+  }
+  if (!n["position"] || !n["quaternion_wxyz"] || n["position"].size() != 3 || n["quaternion_wxyz"].size() != 4)
+    throw InputError(path, "expected position: [x, y, z] and quaternion_wxyz: [w, x, y, z] (written by minimanip calibrate)");
+  const Vec3 p(n["position"][0].as<double>(), n["position"][1].as<double>(), n["position"][2].as<double>());
+  Quat q(n["quaternion_wxyz"][0].as<double>(), n["quaternion_wxyz"][1].as<double>(), n["quaternion_wxyz"][2].as<double>(),
+         n["quaternion_wxyz"][3].as<double>());
+  if (!p.allFinite() || !q.coeffs().allFinite() || std::abs(q.norm() - 1) > 1e-3)
+    throw InputError(path, "the position must be finite and the quaternion a unit one");
+  if (camera) *camera = n["camera"] ? n["camera"].as<std::string>() : "";
+  return makePose(p, q.normalized());
 }
 
 }  // namespace mm

@@ -61,4 +61,8 @@ struct AxxbResidual {
 AxxbResidual axxbResidual(const std::vector<Pose>& T_base_gripper, const std::vector<Pose>& T_camera_board, const Pose& X,
                           bool eye_in_hand);
 
+/// Reads an extrinsics file written by `minimanip calibrate`: the camera's name and T_world_camera
+/// (OpenCV's camera frame). Throws InputError naming the file.
+Pose readExtrinsics(const std::string& path, std::string* camera);
+
 }  // namespace mm

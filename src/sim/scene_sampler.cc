@@ -30,9 +30,9 @@ void SpawnOptions::declare(ConfigArchive& a) {
 }
 
 void SpawnOptions::resolve(const std::string& file) {
-  std::filesystem::path p = catalogue;
-  if (p.is_relative()) p = std::filesystem::path(MINIMANIP_SOURCE_DIR) / p;
-  loaded = loadObjectCatalogue(p.lexically_normal().string());
+  // The experiment's loader resolved the path (a file's value against the file, --set's against
+  // the working directory, the default against the project root); so did the benches.
+  loaded = loadObjectCatalogue(std::filesystem::path(catalogue).lexically_normal().string());
   if (kinds.empty()) throw InputError(file, "objects.kinds: expected at least one kind of " + loaded.file);
   for (const std::string& k : kinds)
     if (!loaded.find(k)) {

@@ -142,6 +142,19 @@ TEST_F(Boundary, ADuplicateKeyAndASectionGivenAValueAreInputErrors) {
   expectRejected("run " + experiment("objects: 5\n"), out, "exp.yaml:3:1: 'objects' is a section (objects.count_min, objects.count_max");
 }
 
+// A path given with --set is the working directory's, the object catalogue's too (it was taken
+// from the project root).
+TEST_F(Boundary, ACatalogueGivenWithSetIsFoundFromTheWorkingDirectory) {
+  fs::copy_file("scenes/objects.yaml", dir_.path() / "my_objects.yaml");
+  std::string out;
+  const int code = shellOut("cd '" + dir_.path().string() + "' && " + std::string(MINIMANIP_BINARY) + " run " +
+                                (fs::current_path() / "experiments/quickstart.yaml").string() +
+                                " --trials 1 --set hardware=mock --set progress=none --set objects.catalogue=my_objects.yaml --out run 2>&1",
+                            out);
+  EXPECT_EQ(code, 0) << out;
+  EXPECT_TRUE(fs::exists(dir_.path() / "run" / "summary.json")) << out;
+}
+
 // ---- output that cannot be written -----------------------------------------------------------
 
 // A file system of our own for a test: a tmpfs of `size` (root's mount); false where this machine

@@ -1,4 +1,4 @@
-// The simulated cell's fidelity and numerics (issue 13): a held cube stays put in the hand (within
+// The simulated cell's fidelity and numerics (the fast, precise cell): a held cube stays put in the hand (within
 // 0.5 mm) through a full-speed transport in friction mode, and creeps without the velocity-product
 // term; a finer physics timestep is substepped under the same
 // 500 Hz control and gives the same outcomes; a timestep that does not divide the control period

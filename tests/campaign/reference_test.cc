@@ -6,10 +6,10 @@
 // ends, from the pick_place tree, `minimanip bench` showing the tree-less chain with the same
 // success and simulated time on every trial; re-recorded the same day when each trial's model came
 // to hold only the objects in play (no parked pool): the same success on all 100, place errors
-// within 0.029 mm, stage durations within a few steps; and again with the place-error fix of
-// issue 13 (the pads govern their contacts, the servo compensates the payload: place errors
+// within 0.029 mm, stage durations within a few steps; and again with the place-error fix
+// (the pads govern their contacts, the servo compensates the payload: place errors
 // 2.84 -> 0.42 mm mean, the fingers close and open sooner on the stiffer pads), by design; and
-// again 2026-11-24, by design (issue 13): the quickstart became the fast cell (full joint limits,
+// again 2026-11-24, by design: the quickstart became the fast cell (full joint limits,
 // 0.5 m/s lines with jerk limits, blends at the pre-grasp and pre-place, early closing: cycle
 // 7.35 -> 3.92 s), the contacts got the velocity-product term (no creep along the pads) and a
 // release lets go before the retreat (place errors 0.42 -> 0.23 mm mean); and the same day when

@@ -190,7 +190,7 @@ TEST(SimWorld, ExportsTheStaticSceneForThePlanner) {
   EXPECT_THAT(names, ::testing::Not(::testing::Contains("floor")));  // the ground plane is out of reach
 }
 
-// ---- what makes the physics fast must not change it (issue 13) ------------------------------
+// ---- what makes the physics fast must not change it --------------------------------------------
 // The mid-phase finds exactly MuJoCo's contacts; a sleeping object wakes before anything moving
 // reaches it, and only objects resting on the world sleep.
 

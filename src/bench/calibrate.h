@@ -31,8 +31,4 @@ struct CalibrateOptions {
 /// <camera>_extrinsics.yaml into out_dir. Returns the report (Markdown).
 std::string runCalibration(const Experiment& experiment, const CalibrateOptions& options);
 
-/// Reads an extrinsics file written by runCalibration: the camera's name and T_world_camera
-/// (OpenCV's camera frame). Throws InputError naming the file.
-Pose readExtrinsics(const std::string& path, std::string* camera);
-
 }  // namespace mm

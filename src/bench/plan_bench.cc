@@ -1,4 +1,4 @@
-#include "campaign/plan_bench.h"
+#include "bench/plan_bench.h"
 
 #include <unistd.h>
 
@@ -96,6 +96,7 @@ std::vector<Problem> makeProblems(const RobotModel& robot, SimWorld& world, int 
   Rng clutter_rng(mixSeed(seed, 2024, 1));
   SpawnOptions so;
   so.physics = false;
+  so.catalogue = resolvePath(so.catalogue, "(default)");  // the project's catalogue
   so.resolve("(default objects)");
   const double preferred = yawOf(robot.fk(robot.home()).linear());
   auto solve = [&](const Pose& T, const VecX& seed_q, VecX& q) {

@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "campaign/plan_bench.h"
+#include "bench/plan_bench.h"
 
 namespace mm {
 namespace {

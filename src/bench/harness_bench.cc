@@ -1,4 +1,4 @@
-#include "campaign/bench.h"
+#include "bench/harness_bench.h"
 
 #include <algorithm>
 #include <chrono>

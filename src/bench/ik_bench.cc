@@ -1,4 +1,4 @@
-#include "campaign/ik_bench.h"
+#include "bench/ik_bench.h"
 
 #include <Eigen/SVD>
 #include <algorithm>
@@ -146,6 +146,7 @@ std::vector<Pose> binPoses(const RobotModel& r, const std::string& scene, int n,
   SpawnOptions so;
   so.physics = false;
   so.count_max = 3;
+  so.catalogue = resolvePath(so.catalogue, "(default)");  // the project's catalogue
   so.resolve("(default objects)");
   std::vector<Pose> out;
   const double preferred = yawOf(r.fk(r.home()).linear());

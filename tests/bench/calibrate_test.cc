@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "../campaign/cli_helpers.h"
-#include "campaign/calibrate.h"
+#include "perception/calibration.h"
 #include "core/error.h"
 
 namespace mm {

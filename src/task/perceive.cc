@@ -1,0 +1,137 @@
+// Perception as the task sees it: the objects in the bin from the configured mode, the target
+// chosen by room, the sensor's count of objects in the bin.
+#include "task/pick_place.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "core/error.h"
+#include "planning/blend.h"
+#include "planning/chomp.h"
+#include "planning/time_parameterization.h"
+#include "sim/hardware.h"
+#include "task/plan_steps.h"
+
+namespace mm {
+
+// ---- perception ------------------------------------------------------------------------------
+
+namespace {
+
+// Camera mode: the camera's depth image through detectBoxes. A detection gets the identity of the
+// true object nearest it (within 3 cm) for the trial's bookkeeping and its pose errors; the pose
+// the robot uses is the camera's. A detection near no object (a false one) is recorded and left
+// out; an object in the bin no detection found is counted as missed.
+PerceptionResult perceiveByCamera(TrialContext& ctx, const std::vector<ObjectState>& truth) {
+  const PerceptionOptions& o = ctx.perception;
+  PerceptionResult p;
+  Frame frame;
+  std::string why;
+  if (!ctx.hw.capture(o.camera, o.camera_width, o.camera_height, frame, &why)) {
+    p.reason = "camera '" + o.camera + "': " + why;
+    return p;
+  }
+  if (o.calibrated) frame.camera.T_world_camera = o.T_world_camera;  // where calibration says it is
+  CameraPerceptionOptions co;
+  co.T_world_crop = o.T_world_crop;
+  co.crop_half = o.crop_half;
+  co.crop_height = o.crop_height;
+  const CameraPerceptionResult r = detectBoxes(frame, o.shapes, co, ctx.rng_perception);
+  std::vector<char> taken(truth.size(), 0);
+  for (const CameraDetection& d : r.detections) {
+    int best = -1;
+    double best_dist = 0.03;
+    for (size_t i = 0; i < truth.size(); ++i) {
+      const double dist = (truth[i].T_world_object.translation() - d.object.T_world_object.translation()).norm();
+      if (!taken[i] && dist < best_dist) best = static_cast<int>(i), best_dist = dist;
+    }
+    DetectionRecord rec;
+    rec.time = ctx.simTime();
+    if (best < 0) {
+      rec.centre_error = rec.rotation_error = rec.mssd = -1;
+      ctx.out.detections.push_back(rec);
+      continue;
+    }
+    taken[static_cast<size_t>(best)] = 1;
+    const ObjectState& t = truth[static_cast<size_t>(best)];
+    const PoseError e = poseError(d.object.T_world_object, t.T_world_object, t.half_size);
+    rec.object = t.index;
+    rec.centre_error = e.centre, rec.rotation_error = e.rotation, rec.mssd = e.mssd;
+    ctx.out.detections.push_back(rec);
+    ObjectState seen = d.object;
+    seen.index = t.index;
+    seen.name = t.name;
+    p.objects.push_back(seen);
+  }
+  for (size_t i = 0; i < truth.size(); ++i)
+    if (!taken[i] && insideCrop(truth[i], o)) ++ctx.out.missed_detections;
+  p.ok = !p.objects.empty();
+  if (!p.ok) p.reason = r.ok ? "no object detected" : r.reason;
+  return p;
+}
+
+}  // namespace
+
+Failure detectObjects(TrialContext& ctx) {
+  StageRecord& st = ctx.stage("perception");
+  const auto t = Clock::now();
+  std::vector<ObjectState> truth;
+  for (const ObjectState& o : ctx.hw.objects())
+    if (o.index != ctx.held) truth.push_back(o);
+  PerceptionResult p = ctx.perception.mode == PerceptionMode::kCamera ? perceiveByCamera(ctx, truth)
+                                                                      : perceive(truth, ctx.perception, ctx.rng_perception);
+  if (ctx.faults) ctx.faults->onPerception(ctx, p);
+  ctx.senseObstacles();
+  st.compute_seconds = since(t);
+  ctx.out.perception_time += st.compute_seconds;
+  if (!p.ok) return ctx.fail({"perception", FailureKind::kPerception, p.reason});
+  ctx.milestone("perception");
+  const bool first = ctx.objects.empty() && ctx.picked.empty();
+  ctx.objects = p.objects;
+  if (first) ctx.out.objects_in_bin = static_cast<int>(ctx.objects.size());
+  return {};
+}
+
+std::vector<int> objectsByRoom(const TrialContext& ctx) {
+  std::vector<std::pair<double, int>> order;
+  for (size_t i = 0; i < ctx.objects.size(); ++i) {
+    const ObjectState& a = ctx.objects[i];
+    if (picked(ctx, a.index)) continue;
+    double room = 1.0;
+    for (const ObjectState& b : ctx.objects)
+      if (a.index != b.index && !picked(ctx, b.index))
+        room = std::min(room, (a.T_world_object.translation() - b.T_world_object.translation()).head<2>().norm());
+    order.push_back({room, static_cast<int>(i)});
+  }
+  std::stable_sort(order.begin(), order.end(), [](const auto& x, const auto& y) { return x.first > y.first; });
+  std::vector<int> out;
+  for (const auto& [room, i] : order) out.push_back(i);
+  return out;
+}
+
+int mostAccessibleObject(TrialContext& ctx) {
+  const std::vector<int> order = objectsByRoom(ctx);
+  for (int i : order)
+    if (graspable(ctx, ctx.objects[i])) return i;
+  return order.empty() ? -1 : order.front();
+}
+
+int perceivedObjectAt(const TrialContext& ctx, const Pose& T_world_object) {
+  int best = -1;
+  double best_d = 0.05;
+  for (size_t i = 0; i < ctx.objects.size(); ++i) {
+    const double d = (ctx.objects[i].T_world_object.translation() - T_world_object.translation()).norm();
+    if (d <= best_d && !picked(ctx, ctx.objects[i].index)) best_d = d, best = static_cast<int>(i);
+  }
+  return best;
+}
+
+int objectsInBin(const TrialContext& ctx) {
+  int n = 0;
+  for (const ObjectState& o : ctx.hw.objects())
+    if (o.index != ctx.held && insideCrop(o, ctx.perception)) ++n;
+  return n;
+}
+
+}  // namespace mm

@@ -1,0 +1,275 @@
+// The pick: grasp candidates, the grasp selected by IK, collision, approach and lift checks, and
+// the pick planned from where the arm rests (open, connect, approach, close, attach, lift).
+#include "task/pick_place.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "core/error.h"
+#include "planning/blend.h"
+#include "planning/chomp.h"
+#include "planning/time_parameterization.h"
+#include "sim/hardware.h"
+#include "task/plan_steps.h"
+
+namespace mm {
+
+// ---- pick ------------------------------------------------------------------------------------
+
+std::vector<GraspCandidate> graspCandidates(TrialContext& ctx, const ObjectState& object) {
+  std::vector<Obstacle> neighbours = ctx.statics;
+  for (const ObjectState& b : ctx.objects)
+    if (b.index != object.index && !picked(ctx, b.index)) neighbours.push_back(boxOf(b));
+  const double preferred_yaw = yawOf(ctx.robot.fk(ctx.robot.home()).linear());
+  const GraspOptions go = graspOptionsFor(ctx.robot.spec().gripper, ctx.options);
+  return mm::graspCandidates(object, preferred_yaw, Vec3::Zero(), neighbours, go);
+}
+
+GraspOptions graspOptionsFor(const GripperSpec& gripper, const TaskOptions& task) {
+  GraspOptions go = task.grasp;
+  go.max_opening = 2 * gripper.travel;
+  go.friction = gripper.pad_friction;
+  go.approach_distance = task.approach_distance;
+  // The pads: the +y finger's first box, in the TCP frame (z along the approach).
+  for (const ShapeSpec& sh : gripper.fingers[0].shapes)
+    if (sh.type == ShapeSpec::Type::kBox) {
+      go.pad_half_width = sh.half[0];
+      go.pad_z_min = gripper.finger_z + sh.pos[2] - sh.half[2] - gripper.tcp_offset;
+      go.pad_z_max = gripper.finger_z + sh.pos[2] + sh.half[2] - gripper.tcp_offset;
+      break;
+    }
+  // The hand body: its front (nearest the TCP) and its half extents across.
+  double front = -INFINITY, thick = 0, wide = 0;
+  for (const ShapeSpec& sh : gripper.hand.shapes) {
+    if (sh.type == ShapeSpec::Type::kMesh) {  // its hull's vertices, placed
+      const Pose T = makePose(Vec3(sh.pos[0], sh.pos[1], sh.pos[2]), Quat(sh.quat[0], sh.quat[1], sh.quat[2], sh.quat[3]));
+      for (const Vec3& v : meshHull(sh.mesh, Vec3(sh.scale[0], sh.scale[1], sh.scale[2]))->vertices) {
+        const Vec3 p = T * v;
+        front = std::max(front, p.z()), thick = std::max(thick, std::abs(p.x())), wide = std::max(wide, std::abs(p.y()));
+      }
+    } else if (sh.type == ShapeSpec::Type::kBox) {
+      front = std::max(front, sh.pos[2] + sh.half[2]);
+      thick = std::max(thick, std::abs(sh.pos[0]) + sh.half[0]);
+      wide = std::max(wide, std::abs(sh.pos[1]) + sh.half[1]);
+    } else {
+      const double r = sh.radius;
+      const double z = sh.type == ShapeSpec::Type::kSphere ? sh.pos[2] + r : std::max(sh.from[2], sh.to[2]) + (sh.type == ShapeSpec::Type::kCapsule ? r : 0.0);
+      front = std::max(front, z);
+      thick = std::max(thick, r);
+      wide = std::max(wide, r);
+    }
+  }
+  if (std::isfinite(front)) go.hand_back = gripper.tcp_offset - front;
+  if (thick > 0) go.hand_half_thickness = thick, go.hand_half_width = wide;
+  return go;
+}
+
+namespace {
+
+// The checks a grasp candidate must pass (pre-grasp IK and no collision there, a straight
+// collision-free approach and lift), with the checkers of selectGrasp; fills `out`'s motions.
+struct GraspCheckers {
+  std::unique_ptr<CollisionChecker> full, no_target;
+};
+
+// `margin`: the fingers open this much wider than the object; the tight pass (margin below
+// finger_margin) also checks with that padding.
+GraspCheckers graspCheckers(const TrialContext& ctx, const ObjectState& object, double margin) {
+  const TaskOptions& o = ctx.options;
+  PlanningScene full_scene = planningScene(ctx, -1, false), approach_scene = planningScene(ctx, object.index, false);
+  const double widest = 2 * std::max(object.half_size.x(), object.half_size.y());
+  full_scene.finger_opening = approach_scene.finger_opening = std::min(ctx.robot.spec().gripper.travel, widest / 2 + margin);
+  const double padding = margin < o.finger_margin ? std::min(o.padding, margin) : o.padding;
+  return {makeChecker(o.checker, ctx.robot, full_scene, padding), makeChecker(o.checker, ctx.robot, approach_scene, padding)};
+}
+
+// The finger margins to try in turn: the configured one, then the tight one in clutter.
+std::vector<double> graspMargins(const TaskOptions& o) {
+  std::vector<double> m{o.finger_margin};
+  if (o.tight_margin > 0 && o.tight_margin < o.finger_margin) m.push_back(o.tight_margin);
+  return m;
+}
+
+Failure tryGrasp(TrialContext& ctx, const ObjectState& object, const GraspCandidate& g, GraspCheckers& checkers,
+                 double approach_distance, Rng& rng, GraspSolution& out, long& collision_checks) {
+  const TaskOptions& o = ctx.options;
+  const Pose& T_grasp = g.T_world_tcp;
+  Pose T_pre = T_grasp;
+  T_pre.translation() += approach_distance * g.approach;
+  const IkResult pre = ikFar(ctx, T_pre, ctx.robot.home(), rng);
+  if (!pre.ok()) return {"grasp_pose_ik", FailureKind::kIk, "pre-grasp: " + pre.reason};
+  if (!checkers.full->isValid(pre.q()))
+    return {"grasp_pose_ik", FailureKind::kCollision, "pre-grasp configuration in collision (" + checkers.full->lastCollision() + ")"};
+  const IkFunction near = ikNear(ctx, rng);
+  out.approach = planCartesianLine(ctx.robot, *checkers.no_target, pre.q(), T_grasp, near, o.cartesian);
+  if (!out.approach.ok) return {"approach", out.approach.kind, out.approach.reason};
+  out.q_pre = pre.q();
+  out.q_grasp = out.approach.waypoints.back();
+  out.T_tcp_object = T_grasp.inverse() * object.T_world_object;
+  // Lift with the object attached; it leaves the bin floor it rests on.
+  PlanningScene ls = planningScene(ctx, object.index, false);
+  ls.has_attached = true;
+  ls.attached_half = object.half_size;
+  ls.T_tcp_attached = out.T_tcp_object;
+  ls.finger_opening = object.half_size.y();
+  ls.attached_padding = -kSupportTolerance;
+  auto lifting = makeChecker(o.checker, ctx.robot, ls, o.padding);
+  Pose T_lift = T_grasp;
+  T_lift.translation().z() += o.lift_height;
+  out.lift = planCartesianLine(ctx.robot, *lifting, out.q_grasp, T_lift, near, o.cartesian);
+  collision_checks += lifting->checks();
+  if (!out.lift.ok) return {"lift", out.lift.kind, out.lift.reason};
+  return {};
+}
+
+}  // namespace
+
+bool graspable(TrialContext& ctx, const ObjectState& object) {
+  // A probe: its own copy of the IK stream and no record, so that choosing leaves the trial's
+  // planning exactly as it would be without it.
+  Rng rng = ctx.rng_ik;
+  const auto candidates = graspCandidates(ctx, object);
+  long checks = 0;
+  for (double margin : graspMargins(ctx.options)) {
+    GraspCheckers checkers = graspCheckers(ctx, object, margin);
+    int tried = 0;
+    for (const GraspCandidate& g : candidates) {
+      if (!g.rejected.empty()) break;  // the rest are out of force closure too
+      if (tried++ >= ctx.options.max_grasp_candidates) break;
+      GraspSolution s;
+      if (tryGrasp(ctx, object, g, checkers, ctx.options.approach_distance, rng, s, checks).ok()) return true;
+    }
+  }
+  return false;
+}
+
+Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vector<GraspCandidate>& candidates,
+                    size_t first, GraspSolution& out, double approach_distance) {
+  const TaskOptions& o = ctx.options;
+  if (approach_distance < 0) approach_distance = o.approach_distance;
+  const double travel = ctx.robot.spec().gripper.travel;
+  const auto t = Clock::now();
+  StageRecord* st = &ctx.stage("grasp_pose_ik");
+  if (ctx.out.target_object < 0) ctx.out.target_object = object.index;
+  auto done = [&](const Failure& f) {
+    st->compute_seconds = since(t);
+    ctx.out.plan_pick_time += st->compute_seconds;
+    st->ok = f.ok();
+    return f;
+  };
+  // filterGrasps: the score (force closure), then IK, collision, the approach and the lift; each
+  // candidate looked at is recorded with what became of it.
+  GraspSelection& sel = ctx.out.grasp_selections.emplace_back();
+  sel.object = object.index;
+  sel.shape = shapeName(object.shape);
+  sel.candidates = static_cast<int>(candidates.size());
+  auto note = [&](const GraspCandidate& g, const std::string& result) {
+    sel.tried.push_back({graspTypeName(g.type), g.score, g.closure_margin, g.contact_area, g.torque_arm, g.clearance, result});
+  };
+  if (candidates.empty())
+    return done({"grasp_pose_ik", FailureKind::kNoGrasp, "no grasp for this object (tilted, or too wide for the stroke)"});
+  Failure last{"grasp_pose_ik", FailureKind::kNoGrasp, "every grasp candidate failed before in this trial"};
+  if (!candidates[first < candidates.size() ? first : 0].rejected.empty())
+    last = {"grasp_pose_ik", FailureKind::kNoGrasp, "no candidate in force closure: " + candidates[first < candidates.size() ? first : 0].rejected};
+  bool found = false;
+  for (double margin : graspMargins(o)) {
+    GraspCheckers checkers = graspCheckers(ctx, object, margin);
+    int tried = 0;
+    for (size_t c = first; c < candidates.size() && tried < o.max_grasp_candidates; ++c) {
+      const GraspCandidate& g = candidates[c];
+      if (!g.rejected.empty()) {  // sorted last: none after it is in force closure
+        note(g, g.rejected);
+        break;
+      }
+      const bool failed_before = std::any_of(ctx.failed_grasps.begin(), ctx.failed_grasps.end(), [&](const Pose& T) {
+        return (T.translation() - g.T_world_tcp.translation()).norm() < 1e-3 &&
+               angleBetween(T.linear(), g.T_world_tcp.linear()) < 1e-2;
+      });
+      if (failed_before) continue;
+      ++tried;
+      ++ctx.out.grasp_candidates_tried;
+      last = tryGrasp(ctx, object, g, checkers, approach_distance, ctx.rng_ik, out, ctx.out.collision_checks);
+      note(g, last.ok() ? "chosen" : last.stage + ": " + last.reason);
+      if (!last.ok()) continue;
+      found = true;
+      out.object = object;
+      out.candidate = g;
+      out.candidate_index = static_cast<int>(c);
+      out.candidates_tried = tried;
+      out.approach_distance = approach_distance;
+      out.finger_margin = margin;
+      ctx.out.grasp_opening = g.width / 2;
+      out.pre_opening = std::min(travel, g.width / 2 + margin);
+      break;
+    }
+    ctx.out.collision_checks += checkers.full->checks() + checkers.no_target->checks();
+    if (found) break;
+  }
+  if (!found) {
+    last.reason += " (after " + std::to_string(ctx.out.grasp_candidates_tried) + " grasp candidates)";
+    ctx.why_not[object.index] = "grasp: " + last.reason;
+    return done(last);
+  }
+  return done({});
+}
+
+Failure planPick(TrialContext& ctx, const GraspSolution& g, Plan& out) {
+  const TaskOptions& o = ctx.options;
+  const double travel = ctx.robot.spec().gripper.travel;
+  const auto t = Clock::now();
+  StageRecord& st = ctx.stage("connect_pregrasp");
+  auto done = [&](const Failure& f) {
+    st.compute_seconds = since(t);
+    ctx.out.plan_pick_time += st.compute_seconds;
+    return f.ok() ? f : ctx.fail(f);
+  };
+  PlanningScene full_scene = planningScene(ctx, -1, false);
+  const double widest = 2 * std::max(g.object.half_size.x(), g.object.half_size.y());
+  const double margin = g.finger_margin > 0 ? g.finger_margin : o.finger_margin;
+  full_scene.finger_opening = std::min(travel, widest / 2 + margin);
+  auto full = makeChecker(o.checker, ctx.robot, full_scene, margin < o.finger_margin ? std::min(o.padding, margin) : o.padding);
+  JointTrajectory t_connect;
+  const Failure f = connect(ctx, "connect_pregrasp", *full, full_scene, ctx.q_rest, g.q_pre, t_connect);
+  ctx.out.collision_checks += full->checks();
+  if (!f.ok()) return done(f);
+  const double dt = ctx.hw.period();
+  JointTrajectory t_approach = cartesianTrajectory(ctx.robot, g.approach, ikNear(ctx), o.scaling, o.cartesian, dt);
+  JointTrajectory t_lift;
+  if (!t_approach.empty()) {
+    const VecX q_grasped = endOf(t_approach);  // the lift starts where the approach ends
+    t_lift = cartesianTrajectory(ctx.robot, g.lift, ikNear(ctx), o.scaling, o.cartesian, dt, &q_grasped);
+  }
+  if (t_approach.empty() || t_lift.empty())
+    return done({t_approach.empty() ? "approach" : "lift", FailureKind::kTimeParameterization,
+                 "no smooth time parameterization of the straight line"});
+  JointTrajectory connect_whole = blendIntoLine(ctx, t_connect, t_approach, *full);
+  // The fingers open to the object's half width plus a margin, not wider: in a bin, the room
+  // beside the object is what limits a grasp.
+  out = Plan{};
+  out.q_start = ctx.q_rest;
+  out.name = "pick";
+  out.bucket = TimeBucket::kPick;
+  out.steps.push_back(gripperStep("open_gripper", ctx.q_rest, g.pre_opening));
+  out.steps.push_back(trajectoryStep("move_pregrasp", std::move(t_connect), g.pre_opening, false));
+  out.steps.back().stop_path = std::move(connect_whole);
+  const VecX q_grasp = endOf(t_approach), q_lifted = endOf(t_lift);
+  out.steps.push_back(trajectoryStep("approach", std::move(t_approach), g.pre_opening, false));
+  PlanStep close = gripperStep("close_gripper", q_grasp, 0.0);
+  close.expected_opening = g.candidate.width / 2;
+  out.steps.push_back(close);
+  out.steps.push_back(markerStep("attach", PlanStep::Kind::kAttach));
+  out.steps.push_back(trajectoryStep("lift", std::move(t_lift), 0.0, true));
+  out.q_end = q_lifted;
+  out.object = g.object.index;
+  out.object_half = g.object.half_size;
+  out.object_shape = g.object.shape;
+  out.grasp_type = graspTypeName(g.candidate.type);
+  out.T_tcp_object = g.T_tcp_object;
+  out.T_world_grasp = g.candidate.T_world_tcp;
+  out.grasp_candidates_tried = g.candidates_tried;
+  if (ctx.faults) ctx.faults->onPlanned(ctx, out);
+  return done({});
+}
+
+}  // namespace mm

@@ -1,0 +1,178 @@
+// The place: the held object set down to rest at its target (connect to the pre-place, lower;
+// open, detach and retreat when it is let go of).
+#include "task/pick_place.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "core/error.h"
+#include "planning/blend.h"
+#include "planning/chomp.h"
+#include "planning/time_parameterization.h"
+#include "sim/hardware.h"
+#include "task/plan_steps.h"
+
+namespace mm {
+
+// ---- place -----------------------------------------------------------------------------------
+
+Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, Plan& out) {
+  const TaskOptions& o = ctx.options;
+  const double travel = ctx.robot.spec().gripper.travel;
+  const auto t = Clock::now();
+  StageRecord* st = &ctx.stage("place_pose_ik");
+  auto done = [&](const Failure& f) {
+    st->compute_seconds = since(t);
+    ctx.out.plan_place_time += st->compute_seconds;
+    return f.ok() ? f : ctx.fail(f);
+  };
+  if (ctx.held < 0) return done({"place_pose_ik", FailureKind::kPrecondition, "nothing in the hand to place"});
+  const VecX q_lift = ctx.q_rest;
+  const Vec3 half = ctx.held_record.half_size;
+  const PlanningScene carrying_scene = planningScene(ctx, -1, true);
+  auto carrying = makeChecker(o.checker, ctx.robot, carrying_scene, o.padding);
+  // Placing: the held object goes down to the tray with no padding of its own.
+  PlanningScene ps = planningScene(ctx, -1, true);
+  ps.attached_padding = -kSupportTolerance;
+  auto descending = makeChecker(o.checker, ctx.robot, ps, o.padding);
+  // TCP poses that put the object at the target, one per symmetry of the box (a cube held on its
+  // side is placed on that side) that keeps the hand within 45 deg of pointing down; least wrist
+  // turn and tilt first.
+  // The target rests the object on the place surface: its centre the held object's own half
+  // height above it.
+  Pose T_target = T_world_object;
+  if (ctx.target_half_height >= 0) T_target.translation().z() += half.z() - ctx.target_half_height;
+  Pose T_obj_place = T_target;
+  T_obj_place.translation().z() += o.place_clearance;
+  const Pose T_tcp_now = ctx.robot.fk(q_lift);
+  const double yaw_now = yawOf(T_tcp_now.linear());
+  std::vector<std::pair<double, Pose>> options;
+  // Held from the side, the hand stays near horizontal: a cylinder turned about its axis by
+  // 30 degree steps (both ways up), the least wrist turn first.
+  std::vector<Mat3> symmetries;
+  if (ctx.held_shape == ObjectShape::kCylinder) {
+    for (double flip : {0.0, M_PI})
+      for (int k = 0; k < 12; ++k) symmetries.push_back(Mat3(rotX(flip) * rotZ(k * M_PI / 6)));
+  } else {
+    symmetries = boxSymmetries(half);
+  }
+  for (Mat3 S : symmetries) {
+    if (ctx.held_shape == ObjectShape::kBox && S(2, 2) > 0.5) {  // a turn about the vertical: the exact rotZ of k quarter turns
+      const long k = (std::lround(std::atan2(S(1, 0), S(0, 0)) / (M_PI / 2)) + 4) % 4;
+      S = rotZ(2 * M_PI * static_cast<double>(k) / 4);
+    }
+    Pose T_obj = T_obj_place;
+    T_obj.linear() = T_obj_place.linear() * S;
+    const Pose T_tcp = T_obj * ctx.T_tcp_held.inverse();
+    const double tilt = std::acos(std::clamp(-T_tcp.linear()(2, 2), -1.0, 1.0));
+    if (ctx.held_from_side) {
+      if (std::abs(tilt - M_PI / 2) > M_PI / 4) continue;
+      options.push_back({angleBetween(T_tcp.linear(), T_tcp_now.linear()), T_tcp});
+      continue;
+    }
+    if (tilt > M_PI / 4) continue;
+    options.push_back({std::abs(wrapAngle(yawOf(T_tcp.linear()) - yaw_now)) + 2 * tilt, T_tcp});
+  }
+  std::stable_sort(options.begin(), options.end(), [](auto& a, auto& b) { return a.first < b.first; });
+  Failure last{"place_pose_ik", FailureKind::kIk, "no IK solution for any place pose"};
+  bool found = false;
+  VecX q_preplace;
+  CartesianPath descend, retreat;
+  double release_opening = travel;
+  for (const auto& [cost, T_place] : options) {
+    Pose T_pre = T_place;
+    T_pre.translation().z() += o.approach_distance;
+    const IkResult pre = ikFar(ctx, T_pre, q_lift);
+    if (!pre.ok()) {
+      last = {"place_pose_ik", FailureKind::kIk, "pre-place: " + pre.reason};
+      continue;
+    }
+    if (!carrying->isValid(pre.q())) {
+      last = {"place_pose_ik", FailureKind::kCollision, "pre-place configuration in collision (" + carrying->lastCollision() + ")"};
+      continue;
+    }
+    descend = planCartesianLine(ctx.robot, *descending, pre.q(), T_place, ikNear(ctx), o.cartesian);
+    if (!descend.ok) {
+      last = {"place", descend.kind, descend.reason};
+      continue;
+    }
+    // Retreat: fingers open, the placed object left behind (between the fingers, not checked).
+    // Fully open; or, beside objects placed before, only just letting go (tight_margin wider
+    // than the object, else finger_margin).
+    Pose T_up = T_place;
+    T_up.translation().z() += o.retreat_distance;
+    // With a tight margin (clutter), last the same opening checked with that margin as padding, as
+    // the tight approach is: the fingers rise straight up within millimetres of the neighbours.
+    const double let_go = o.tight_margin > 0 ? std::min(o.tight_margin, o.finger_margin) : o.finger_margin;
+    const double just = std::min(travel, ctx.out.grasp_opening + let_go);
+    std::vector<std::pair<double, double>> tries{{travel, o.padding}, {just, o.padding}};
+    if (o.tight_margin > 0 && o.tight_margin < o.padding) tries.push_back({just, o.tight_margin});
+    for (const auto& [opening, padding] : tries) {
+      PlanningScene rs = planningScene(ctx, ctx.held, false);
+      rs.finger_opening = opening;
+      auto retreating = makeChecker(o.checker, ctx.robot, rs, padding);
+      retreat = planCartesianLine(ctx.robot, *retreating, descend.waypoints.back(), T_up, ikNear(ctx), o.cartesian);
+      ctx.out.collision_checks += retreating->checks();
+      release_opening = opening;
+      if (retreat.ok) break;
+    }
+    if (!retreat.ok) {
+      last = {"retreat", retreat.kind, retreat.reason};
+      continue;
+    }
+    q_preplace = pre.q();
+    found = true;
+    break;
+  }
+  if (!found) return done(last);
+  st->compute_seconds = since(t);
+  ctx.out.plan_place_time += st->compute_seconds;
+  const auto t_connect_start = Clock::now();
+  st = &ctx.stage("connect_place");
+  JointTrajectory t_connect;
+  Failure f = connect(ctx, "connect_place", *carrying, carrying_scene, q_lift, q_preplace, t_connect);
+  ctx.out.collision_checks += carrying->checks() + descending->checks();
+  auto done_connect = [&](const Failure& r) {
+    st->compute_seconds = since(t_connect_start);
+    ctx.out.plan_place_time += st->compute_seconds;
+    return r.ok() ? r : ctx.fail(r);
+  };
+  if (!f.ok()) return done_connect(f);
+  const double dt = ctx.hw.period();
+  JointTrajectory t_descend = cartesianTrajectory(ctx.robot, descend, ikNear(ctx), o.scaling, o.cartesian, dt);
+  JointTrajectory t_retreat;
+  if (!t_descend.empty()) {
+    const VecX q_placed = endOf(t_descend);  // the retreat starts where the descent ends
+    t_retreat = cartesianTrajectory(ctx.robot, retreat, ikNear(ctx), o.scaling, o.cartesian, dt, &q_placed);
+  }
+  if (t_descend.empty() || t_retreat.empty())
+    return done_connect({t_descend.empty() ? "place" : "retreat", FailureKind::kTimeParameterization,
+                         "no smooth time parameterization of the straight line"});
+  JointTrajectory connect_whole = blendIntoLine(ctx, t_connect, t_descend, *carrying);
+  const VecX q_down = endOf(t_descend), q_retreated = endOf(t_retreat);
+  out = Plan{};
+  out.q_start = q_lift;
+  out.name = "place";
+  out.bucket = TimeBucket::kPlace;
+  out.steps.push_back(trajectoryStep("move_preplace", std::move(t_connect), 0.0, true));
+  out.steps.back().stop_path = std::move(connect_whole);
+  out.steps.push_back(trajectoryStep("place", std::move(t_descend), 0.0, true));
+  out.steps.back().guarded = true;  // the held object meeting the surface early is touch-down, not a fault
+  out.q_end = q_down;
+  out.object = ctx.held;
+  out.T_world_target = T_target;
+  out.places = true;
+  if (release) {
+    PlanStep open = gripperStep("open_gripper_release", q_down, release_opening);
+    open.release = true;
+    out.steps.push_back(open);
+    out.steps.push_back(markerStep("detach", PlanStep::Kind::kMarker));
+    out.steps.push_back(trajectoryStep("retreat", std::move(t_retreat), release_opening, false));
+    out.q_end = q_retreated;
+  }
+  if (ctx.faults) ctx.faults->onPlanned(ctx, out);
+  return done_connect({});
+}
+
+}  // namespace mm

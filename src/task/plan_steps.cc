@@ -1,0 +1,131 @@
+#include "task/plan_steps.h"
+
+#include <algorithm>
+
+#include "planning/blend.h"
+#include "planning/chomp.h"
+#include "planning/time_parameterization.h"
+#include "sim/hardware.h"
+
+namespace mm {
+
+VecX endOf(const JointTrajectory& t) { return t.q.col(t.size() - 1); }
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+Obstacle boxOf(const ObjectState& o) {
+  Obstacle b;
+  b.type = o.shape == ObjectShape::kCylinder ? Obstacle::Type::kCylinder : Obstacle::Type::kBox;
+  b.size = o.shape == ObjectShape::kCylinder ? Vec3(o.half_size.x(), o.half_size.z(), 0) : o.half_size;
+  b.T_world = o.T_world_object;
+  b.name = o.name;
+  return b;
+}
+
+bool picked(const TrialContext& ctx, int index) {
+  return std::find(ctx.picked.begin(), ctx.picked.end(), index) != ctx.picked.end();
+}
+
+PlanningScene planningScene(const TrialContext& ctx, int exclude, bool attached) {
+  PlanningScene s;
+  s.obstacles = ctx.statics;
+  s.obstacles.insert(s.obstacles.end(), ctx.seen_obstacles.begin(), ctx.seen_obstacles.end());
+  for (const ObjectState& o : ctx.objects)
+    if (o.index != exclude && !picked(ctx, o.index)) s.obstacles.push_back(boxOf(o));
+  for (const PickRecord& p : ctx.out.picks)
+    if (p.at_target && p.object != exclude) {
+      ObjectState placed;
+      placed.index = p.object;
+      placed.name = "placed_" + std::to_string(p.object);
+      placed.half_size = p.half_size;
+      placed.T_world_object = p.T_world_target;
+      s.obstacles.push_back(boxOf(placed));
+    }
+  if (attached && ctx.held >= 0) {
+    s.has_attached = true;
+    s.attached_half = ctx.held_record.half_size;
+    s.T_tcp_attached = ctx.T_tcp_held;
+    s.finger_opening = ctx.held_record.half_size.y();
+  }
+  return s;
+}
+
+IkFunction ikNear(TrialContext& ctx, Rng& rng) {
+  return [&ctx, &rng](const Pose& T, const VecX& seed, VecX& q) {
+    IkRequest one = ctx.options.ik;
+    one.target = T;
+    one.seed = seed;
+    one.max_attempts = 1;  // a single descent from the seed: stay on its branch
+    one.limit_margin = 0.0;
+    // Converged far below the control period's resolution: samples 2 ms apart are differentiated
+    // twice, so IK noise of 1e-5 rad would read as accelerations of several rad/s^2.
+    one.tol_position = 1e-10;
+    one.tol_rotation = 1e-9;
+    const IkResult r = ctx.ik_near->solve(one, rng);
+    if (r.ok()) q = r.q();
+    return r.ok();
+  };
+}
+IkFunction ikNear(TrialContext& ctx) { return ikNear(ctx, ctx.rng_ik); }
+
+IkResult ikFar(TrialContext& ctx, const Pose& T, const VecX& seed, Rng& rng) {
+  IkRequest req = ctx.options.ik;
+  req.target = T;
+  req.seed = seed;
+  req.limit_margin = kLimitMargin;
+  req.nearest = true;  // the least joint motion from where the arm will be
+  return ctx.ik->solve(req, rng);
+}
+IkResult ikFar(TrialContext& ctx, const Pose& T, const VecX& seed) { return ikFar(ctx, T, seed, ctx.rng_ik); }
+
+Failure connect(TrialContext& ctx, const std::string& stage, CollisionChecker& checker, const PlanningScene& scene,
+                const VecX& start, const VecX& goal, JointTrajectory& out) {
+  if (ctx.faults && ctx.faults->failPlanning(ctx, stage))
+    return {stage, FailureKind::kPlanning, "planner " + ctx.options.planner.planner + ": no solution (injected fault)"};
+  PlanResult r = planJointPath(ctx.robot, checker, start, goal, ctx.rng_plan.next(), ctx.options.planner);
+  if (ctx.options.optimizer == "chomp" && r.ok) r.path = chompSmooth(ctx.robot, scene, checker, r.path).path;
+  if (!r.ok) return {stage, r.kind, r.reason};
+  TimedPath t = timeParameterize(ctx.options.time_parameterization, r.path, ctx.robot, ctx.options.scaling,
+                                 ctx.hw.period(), [&](const VecX& q) { return checker.isValid(q); });
+  if (t.trajectory.empty()) return {stage, FailureKind::kTimeParameterization, t.failure};
+  out = std::move(t.trajectory);
+  ctx.milestone("plan:" + stage);
+  return {};
+}
+
+JointTrajectory blendIntoLine(TrialContext& ctx, JointTrajectory& connect, JointTrajectory& line, CollisionChecker& checker) {
+  const TaskOptions& o = ctx.options;
+  if (o.blend_radius <= 0 || o.settle_every_move) return {};
+  JointTrajectory whole = connect;
+  const long checks = checker.checks();
+  const int k = blendJunction(connect, line, ctx.robot, {o.blend_radius, o.scaling}, [&](const VecX& q) { return checker.isValid(q); });
+  ctx.out.collision_checks += checker.checks() - checks;
+  return k > 0 ? whole : JointTrajectory{};
+}
+
+PlanStep trajectoryStep(const std::string& stage, JointTrajectory t, double opening, bool holding) {
+  PlanStep s;
+  s.kind = PlanStep::Kind::kTrajectory;
+  s.stage = stage;
+  s.trajectory = std::move(t);
+  s.opening = opening;
+  s.holding = holding;
+  return s;
+}
+
+PlanStep gripperStep(const std::string& stage, const VecX& q_hold, double opening) {
+  PlanStep s;
+  s.kind = PlanStep::Kind::kGripper;
+  s.stage = stage;
+  s.q_hold = q_hold;
+  s.opening = opening;
+  return s;
+}
+
+PlanStep markerStep(const std::string& stage, PlanStep::Kind kind) {
+  PlanStep s;
+  s.kind = kind;
+  s.stage = stage;
+  return s;
+}
+
+}  // namespace mm
