@@ -33,6 +33,11 @@ void Experiment::declare(ConfigArchive& a) {
           "taken as hung, killed, and its trial retried once in a fresh worker, then recorded as failure_kind hang. It only "
           "catches true hangs; a trial's own limit is its simulated-time budget (bt.time_budget, deterministic)");
   a.choice("progress", progress, {"auto", "bar", "lines", "none"}, "progress display; auto: a bar on a terminal, lines otherwise");
+  a.enter("task");
+  a.choice("goal", goal, {"pick_one", "clear_bin"},
+           "what a trial is asked to do, for the report (the tree decides what the robot does): pick_one, one object placed "
+           "(the objects left in the bin are context, not a yield); clear_bin, every object (the per-object yield is the headline)");
+  a.leave();
   a.enter("objects");
   spawn.declare(a);
   a.leave();

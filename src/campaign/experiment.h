@@ -27,6 +27,10 @@ struct Experiment {
   int shard_index = 0, shard_count = 1;
   uint64_t seed = 1;
   std::string hardware = "mujoco";  ///< see hardwareNames()
+  /// What the task asks of a trial (reporting only: the tree decides what the robot does):
+  /// pick_one (one object placed a trial; objects left are context) or clear_bin (every object:
+  /// the per-object yield is the headline).
+  std::string goal = "pick_one";
   /// Paths, resolved: set in the file, against its folder; by --set, against the working
   /// directory; left default, against the project root.
   std::string robot_path = "robots/panda/panda.yaml";

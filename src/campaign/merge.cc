@@ -145,7 +145,7 @@ std::string mergeResults(const std::vector<std::string>& dirs, const std::string
       text << in.rdbuf();
       const CampaignSummary shard = summaryFromJson(text.str(), p.string());
       if (d == dirs[0]) {
-        s.experiment = shard.experiment, s.experiment_file = shard.experiment_file, s.seed = shard.seed;
+        s.experiment = shard.experiment, s.experiment_file = shard.experiment_file, s.seed = shard.seed, s.goal = shard.goal;
         s.hardware = shard.hardware, s.tree = shard.tree, s.jobs = shard.jobs;
       }
       wall += shard.wall_seconds;

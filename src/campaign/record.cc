@@ -182,6 +182,7 @@ void CampaignSummary::describe(RecordArchive& a) {
   a.field("schema", schema, "", "record format version");
   a.field("experiment", experiment, "", "its name");
   a.field("experiment_file", experiment_file, "", "");
+  a.field("goal", goal, "", "task.goal: pick_one (a trial places one object) or clear_bin (every object; object_yield is the headline)");
   a.field("command", command, "", "the command line");
   a.field("seed", seed, "", "");
   a.field("hardware", hardware, "", "");

@@ -72,6 +72,7 @@ struct FaultStats {
 struct CampaignSummary {
   int schema = kTrialSchema;
   std::string experiment, experiment_file, command, hardware, tree;
+  std::string goal = "pick_one";  ///< task.goal: pick_one or clear_bin (what the report leads with)
   unsigned long seed = 0;
   long trials = 0, successes = 0, first_pass = 0, recoveries_needed = 0, recovered = 0;
   double first_pass_yield = 0, overall_yield = 0;

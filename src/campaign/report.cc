@@ -287,8 +287,18 @@ void campaignSections(Builder& b, const json& s, const fs::path& jsonl) {
             {num(s.at("place_position_error_mm").at("mean"), 2) + " / " + num(s.at("place_position_error_mm").at("max"), 2) + " mm",
              "place_position_error_mm"}},
            {{"collision events", ""}, {std::to_string(s.at("collision_events").get<long>()), "collision_events"}},
-           {{"objects placed / left in bins", ""},
-            {std::to_string(s.at("objects_placed").get<long>()) + " / " + std::to_string(s.at("objects_left_in_bin").get<long>()), "objects"}},
+           s.value("goal", "pick_one") == "clear_bin"
+               ? std::vector<std::pair<std::string, std::string>>{{"objects placed of spawned (object yield)", ""},
+                                                                 {std::to_string(s.at("objects_placed").get<long>()) + " of " +
+                                                                      std::to_string(s.at("objects_spawned").get<long>()) + " (" +
+                                                                      pct(s.at("object_yield").at("value")) + ", " +
+                                                                      interval(s.at("object_yield").at("ci95")) + ")",
+                                                                  "objects"}}
+               : std::vector<std::pair<std::string, std::string>>{{"objects placed (one a trial asked)", ""},
+                                                                 {std::to_string(s.at("objects_placed").get<long>()) + "; " +
+                                                                      std::to_string(s.at("objects_left_in_bin").get<long>()) +
+                                                                      " others stay in the bins, as asked",
+                                                                  "objects"}},
            {{"timeouts / crashes / hangs / unstable", ""},
             {std::to_string(s.at("timeouts").get<long>()) + " / " + std::to_string(s.value("crashes", 0L)) + " / " +
                  std::to_string(s.value("hangs", 0L)) + " / " + std::to_string(s.at("sim_unstable").get<long>()),

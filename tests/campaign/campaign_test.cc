@@ -57,6 +57,23 @@ void expectCleanPicks(const std::vector<json>& trials) {
   }
 }
 
+// The summary leads with what the task asked: one object a trial (the others in the bin are
+// context, not a yield), or the whole bin (the per-object yield first).
+TEST(Campaign, TheSummarySaysWhatTheTaskAsked) {
+  TempDir d;
+  const std::string base = "run experiments/quickstart.yaml --set hardware=mock --set progress=none --trials 3 --seed 2";
+  const RunResult one = runMinimanip(base + " --out " + (d.path() / "one").string());
+  ASSERT_EQ(one.code, 0) << one.out;
+  EXPECT_THAT(one.out, HasSubstr("Trials:            3 (each asked to place one object)"));
+  EXPECT_THAT(one.out, HasSubstr("one a trial was asked"));
+  EXPECT_THAT(one.out, ::testing::Not(HasSubstr("Object Yield")));
+  const RunResult all = runMinimanip(base + " --set task.goal=clear_bin --out " + (d.path() / "all").string());
+  ASSERT_EQ(all.code, 0) << all.out;
+  EXPECT_THAT(all.out, ::testing::MatchesRegex("(.|\n)*Trials: +3 \\(each asked to clear its bin\\)\n  Object Yield: (.|\n)*"));
+  EXPECT_EQ(json::parse(std::ifstream(d.path() / "all" / "summary.json"))["goal"], "clear_bin");
+  EXPECT_EQ(json::parse(std::ifstream(d.path() / "one" / "summary.json"))["goal"], "pick_one");
+}
+
 TEST(Campaign, ShortMujocoCampaignSucceedsAndMeasures) {
   TempDir d;
   const RunResult r = runMinimanip("run experiments/quickstart.yaml --trials 4 --set progress=none --out " + (d.path() / "out").string());

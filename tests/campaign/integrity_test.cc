@@ -272,9 +272,10 @@ TEST(Integrity, AFailedSpawnIsCountedAsSuchNeverAsAnEmptiedBin) {
   // Eight cubes 0.3 m apart do not fit in the bin: every spawn fails.
   const fs::path out = d.path() / "out";
   const RunResult r = runMinimanip("run experiments/quickstart.yaml --trials 3 --set progress=none --set objects.count_min=8 "
-                                   "--set objects.count_max=8 --set objects.min_spacing=0.3 --out " + out.string());
+                                   "--set objects.count_max=8 --set objects.min_spacing=0.3 --set task.goal=clear_bin --out " + out.string());
   ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_THAT(r.out, HasSubstr("0 of 3 bins empty; 3 spawns failed"));
+  EXPECT_THAT(r.out, HasSubstr("Bins emptied:      0 of 3"));
+  EXPECT_THAT(r.out, HasSubstr("Objects placed:    0 of 0 (0 left in bins; 3 spawns failed)"));
   for (const json& t : readTrials(out)) {
     EXPECT_EQ(t["failure_kind"], "spawn");
     EXPECT_EQ(t["failure_stage"], "spawn");
