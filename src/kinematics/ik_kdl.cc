@@ -262,14 +262,14 @@ class TracIkSolver final : public IkSolver {
       const KDL::Frame* target;
       bool done = false;
       std::vector<double> solution;
-    } ctx{this, &req, &race, &units, budget, t0, &capped, &fk, &jac, &target};
+    } ctx{this, &req, &race, &units, budget, t0, &capped, &fk, &jac, &target, false, {}};
     auto objective = [](const std::vector<double>& x, std::vector<double>& grad, void* data) -> double {
       Ctx& c = *static_cast<Ctx*>(data);
       if (c.self->stop(*c.race, *c.units, 1, c.budget, c.t0, *c.capped, *c.req)) throw nlopt::forced_stop();
       ++*c.units;
-      const int n = static_cast<int>(x.size());
-      KDL::JntArray q(n);
-      for (int i = 0; i < n; ++i) q(i) = x[i];
+      const int dof = static_cast<int>(x.size());
+      KDL::JntArray q(dof);
+      for (int i = 0; i < dof; ++i) q(i) = x[i];
       KDL::Frame f;
       c.fk->JntToCart(q, f);
       const KDL::Twist d = KDL::diff(f, *c.target);
@@ -279,9 +279,9 @@ class TracIkSolver final : public IkSolver {
         throw nlopt::forced_stop();
       }
       if (!grad.empty()) {
-        KDL::Jacobian J(n);
+        KDL::Jacobian J(dof);
         c.jac->JntToJac(q, J);
-        for (int i = 0; i < n; ++i) {
+        for (int i = 0; i < dof; ++i) {
           grad[i] = 0;
           for (int k = 0; k < 6; ++k) grad[i] -= J(k, i) * d(k);
         }

@@ -81,11 +81,11 @@ int UrAnalyticIk::solve(const Pose& T_base_tcp, double q6_singular, std::array<J
           if (c_given < c_lo - 1e-12 || c_given > c_hi + 1e-12) {
             const double c = std::clamp(c_given < c_lo ? c_lo : c_hi, -1.0, 1.0);
             const double d = std::acos(c);
-            const double phi = std::abs(std::remainder(tp + d - phi_given, 2 * M_PI)) <
-                                       std::abs(std::remainder(tp - d - phi_given, 2 * M_PI))
-                                   ? tp + d
-                                   : tp - d;
-            const Vec3 z5 = T.linear().transpose() * (R02 * Vec3(std::cos(phi), std::sin(phi), 0));
+            const double phi5 = std::abs(std::remainder(tp + d - phi_given, 2 * M_PI)) <
+                                        std::abs(std::remainder(tp - d - phi_given, 2 * M_PI))
+                                    ? tp + d
+                                    : tp - d;
+            const Vec3 z5 = T.linear().transpose() * (R02 * Vec3(std::cos(phi5), std::sin(phi5), 0));
             q6 = std::atan2(-z5.x(), -z5.y());
           }
         }
