@@ -93,8 +93,8 @@ std::string summaryTable(const CampaignSummary& s) {
     t << "  Objects placed:    " << s.objects_placed << " of " << s.objects_spawned << " (" << s.objects_left_in_bin << " left in bins" << spawns
       << ")\n";
   else  // one object a trial: the others were never asked for
-    t << "  Objects placed:    " << s.objects_placed << " (one a trial was asked; the bins' other " << s.objects_left_in_bin
-      << " objects stay, as the task wants" << spawns << ")\n";
+    t << "  Objects placed:    " << s.objects_placed << " (one a trial asked); " << s.objects_left_in_bin
+      << (s.objects_left_in_bin == 1 ? " object" : " objects") << " left in the bins" << spawns << "\n";
   t << "  Max Tracking Err:  " << std::setprecision(4) << s.max_tracking_error << " rad\n";
   if (!s.faults.empty()) {
     t << std::string(64, '-') << "\n  Faults: injected, detected; recovered of those judged (unrecoverable kinds:\n"

@@ -238,7 +238,7 @@ int main(int argc, char** argv) {
     }
     if (merge->parsed()) {
       std::cout << mm::mergeResults(merge_dirs, merge_out, command_line) << "Results: " << merge_out
-                << "/ (trials.jsonl, summary.json, config.resolved.yaml, campaign.json, bt/)\n";
+                << "/ (trials.jsonl, summary.json, campaign.json, config.resolved.yaml, bt/)\n";
       return 0;
     }
     if (worker->parsed()) return mm::runWorker(mm::loadExperiment(worker_args.file, worker_args.sets, {}, false), worker_args.out);
@@ -259,7 +259,7 @@ int main(int argc, char** argv) {
         return 0;
       }
       const std::string table = mm::runCampaign(e, co);
-      std::cout << table << "Results: " << co.out_dir << "/ (trials.jsonl, summary.json, config.resolved.yaml, bt/)\n";
+      std::cout << table << "Results: " << co.out_dir << "/ (trials.jsonl, summary.json, campaign.json, config.resolved.yaml, bt/)\n";
       return 0;
     }
     if (ik_cmd->parsed()) {

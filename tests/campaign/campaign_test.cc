@@ -65,7 +65,7 @@ TEST(Campaign, TheSummarySaysWhatTheTaskAsked) {
   const RunResult one = runMinimanip(base + " --out " + (d.path() / "one").string());
   ASSERT_EQ(one.code, 0) << one.out;
   EXPECT_THAT(one.out, HasSubstr("Trials:            3 (each asked to place one object)"));
-  EXPECT_THAT(one.out, HasSubstr("one a trial was asked"));
+  EXPECT_THAT(one.out, HasSubstr("Objects placed:    3 (one a trial asked); "));
   EXPECT_THAT(one.out, ::testing::Not(HasSubstr("Object Yield")));
   const RunResult all = runMinimanip(base + " --set task.goal=clear_bin --out " + (d.path() / "all").string());
   ASSERT_EQ(all.code, 0) << all.out;
