@@ -191,6 +191,8 @@ void checkCampaignInput(const Experiment& e) {
 }
 
 std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
+  // Of two runs started on one folder, the first started keeps it, however long its input takes.
+  const FolderLock claim = FolderLock::claimBeforeStart(co.out_dir, "minimanip run");
   // Everything that can be bad input is loaded and checked before anything is written.
   checkCampaignInput(e);
   const json fingerprint = fingerprintOf(e);

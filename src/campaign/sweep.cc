@@ -31,6 +31,7 @@ std::string runSweep(const Experiment& e, const CampaignOptions& o) {
     for (const std::string& s : e.sets)
       if (s.rfind(f.key + "=", 0) == 0) throw InputError(f.where, "'" + f.key + "' is both swept and set by --set");
   const std::vector<std::vector<std::string>> cells = sweepCells(e.sweep);
+  const FolderLock claim = FolderLock::claimBeforeStart(o.out_dir, "minimanip run (sweep)");  // the first started keeps it
 
   json factors = json::array(), cell_list = json::array();
   for (const ParamSet::Sweep& f : e.sweep) factors.push_back({{"key", f.key}, {"values", f.values}});

@@ -5,6 +5,8 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdint>
+#include <cstdio>
 #include <string>
 
 #include "core/error.h"
@@ -38,7 +40,24 @@ std::string thisHost() {
 
 FolderLock::FolderLock(const std::filesystem::path& dir, const std::string& command, std::string* note) {
   createDirectories(dir);
-  const std::filesystem::path file = dir / kFileName;
+  lock(dir / kFileName, dir, command, note);
+}
+
+FolderLock FolderLock::claimBeforeStart(const std::filesystem::path& dir, const std::string& command) {
+  namespace fs = std::filesystem;
+  const std::string key = fs::absolute(dir).lexically_normal().string();
+  uint64_t h = 1469598103934665603ull;  // FNV-1a of the folder's absolute path
+  for (const unsigned char c : key) h = (h ^ c) * 1099511628211ull;
+  char name[40];
+  std::snprintf(name, sizeof name, "%016llx.lock", static_cast<unsigned long long>(h));
+  const fs::path claims = fs::temp_directory_path() / ("minimanip-claims-" + std::to_string(::getuid()));
+  createDirectories(claims);
+  FolderLock claim;
+  claim.lock(claims / name, dir, command, nullptr);
+  return claim;
+}
+
+void FolderLock::lock(const std::filesystem::path& file, const std::filesystem::path& dir, const std::string& command, std::string* note) {
   fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
   // On a read-only file system no one writes the folder, and reading it (a resume with nothing to
   // do) needs no more than a lock on the file as it is: a read-only descriptor takes a flock too.
@@ -50,8 +69,9 @@ FolderLock::FolderLock(const std::filesystem::path& dir, const std::string& comm
     ::close(fd_);
     fd_ = -1;
     if (err != EWOULDBLOCK) throw OutputError(file.string(), "cannot lock: " + errnoText(err));
-    throw InputError(dir.string(), "in use by another process (" + (holder.empty() ? std::string("pid unknown") : holder) +
-                                       "), which holds " + file.string() +
+    const bool in_folder = file.parent_path() == dir;
+    throw InputError(dir.string(), "in use by another process (" + (holder.empty() ? std::string("pid unknown") : holder) + "), which " +
+                                       (in_folder ? "holds " + file.string() : std::string("started on it first")) +
                                        ": one process writes a results folder at a time; wait for it, stop it, or use another --out");
   }
   // Ours now. A pid left in the file is a holder that ended without clearing it (killed).
