@@ -167,8 +167,11 @@ void checkCampaignInput(const Experiment& e) {
     const RobotSpec spec = loadAnyRobotSpec(e.robot_path, e.gripper_path == "default" ? "" : e.gripper_path);
     for (const std::string& f : {e.robot_path, spec.sidecar, spec.gripper.file, e.scene_path, e.tree_path, e.spawn.catalogue,
                                  e.perception.extrinsics == "simulator" ? std::string() : e.perception.extrinsics}) {
-      if (f.empty() || !fs::is_regular_file(f)) continue;
+      std::error_code ec;
+      if (f.empty() || !fs::exists(f, ec)) continue;  // a missing file is named by its own loader
+      if (ec || !fs::is_regular_file(f, ec) || ec) throw InputError(f, "cannot be read: " + (ec ? ec.message() : "not a file"));
       std::ifstream in(f, std::ios::binary);
+      if (!in) throw InputError(f, "cannot be read: " + errnoText(errno));
       std::ostringstream text;
       text << in.rdbuf();
       requireUtf8File(text.str(), f);

@@ -278,6 +278,10 @@ TEST(Integrity, AFolderThatMayNotBeWrittenIsExitThreeNamingIt) {
   // As an unprivileged user (root writes anywhere): setpriv from util-linux.
   const bool can = ::geteuid() == 0 && std::system("command -v setpriv >/dev/null") == 0;
   SKIP_OR_FAIL_WITHOUT(can, "running as another user (setpriv, root)");
+  // The unprivileged user reads the experiment, robot and scene from this checkout.
+  if (std::system(("setpriv --reuid=65534 --regid=65534 --clear-groups test -r '" + (fs::current_path() / "experiments/quickstart.yaml").string() +
+                   "' 2>/dev/null").c_str()) != 0)
+    GTEST_SKIP() << "this checkout is not readable by other users (" << fs::current_path() << "): nothing to try as one";
   fs::permissions(d.path(), fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec | fs::perms::others_read |
                                 fs::perms::others_exec);
   const fs::path out = d.path() / "out";
@@ -288,6 +292,14 @@ TEST(Integrity, AFolderThatMayNotBeWrittenIsExitThreeNamingIt) {
   EXPECT_EQ(code, 3) << text;
   EXPECT_THAT(text, HasSubstr("error: cannot write " + out.string() + ": Permission denied"));
   EXPECT_FALSE(fs::exists(out));
+  // A file it may not read is bad input (exit 2) naming the file, not an internal error.
+  const std::string tree = d.file("tree.xml", "<root BTCPP_format=\"4\"/>\n");
+  fs::permissions(tree, fs::perms::owner_read | fs::perms::owner_write);
+  const int unreadable = shellOut("setpriv --reuid=65534 --regid=65534 --clear-groups " + std::string(MINIMANIP_BINARY) + " " + kMock +
+                                      " --trials 1 --set tree=" + tree + " --out " + (d.path() / "out2").string() + " 2>&1",
+                                  text);
+  EXPECT_EQ(unreadable, 2) << text;
+  EXPECT_THAT(text, HasSubstr(tree + ": cannot be read: Permission denied"));
 }
 
 // ---- records -----------------------------------------------------------------------------------
