@@ -182,7 +182,7 @@ void FaultInjector::onPerception(TrialContext& ctx, PerceptionResult& r) {
   if (pose.drawn && !pose.fired) {
     fire(FaultKind::kPerceptionPoseError, ctx, "perception");
     ObjectState& o = r.objects[mostRoom(r.objects)];
-    pose.object = o.index;
+    pose.object = ctx.truthIndex(o.index);
     o.T_world_object.translation() += o_.pose_error * Vec3(std::cos(pose.angle), std::sin(pose.angle), 0);
     o.T_world_object.linear() = rotZ(pose.sign * o_.pose_error_yaw) * o.T_world_object.linear();
   }
@@ -277,6 +277,7 @@ void FaultInjector::onPlanned(TrialContext& ctx, const Plan& plan) {
     scene.T_tcp_attached = ctx.T_tcp_held;
   }
   const std::vector<Obstacle> cell = world_.staticObstacles();
+  const TruthScope world(ctx.hw, "a fault injected");
   const std::vector<ObjectState> objects = ctx.hw.objects();
   Obstacle column;
   column.type = Obstacle::Type::kBox;
@@ -327,7 +328,7 @@ void FaultInjector::beforeStep(TrialContext& ctx) {
     Armed& close = at(FaultKind::kGripperNoClose);
     if (hw_->blocked && !close.fired) {
       fire(FaultKind::kGripperNoClose, ctx, "close_gripper");
-      close.object = ctx.picking;
+      close.object = ctx.truthIndex(ctx.picking);
     }
   }
   if (ctx.out.stages.size() != stage_index_) {
@@ -339,17 +340,18 @@ void FaultInjector::beforeStep(TrialContext& ctx) {
   // The target leaves, or is pushed aside, while the arm moves to it.
   for (FaultKind k : {FaultKind::kObjectRemoved, FaultKind::kObjectMoved}) {
     Armed& a = at(k);
-    if (!a.drawn || a.fired || ctx.picking < 0 || ctx.picking >= 1000) continue;
+    const int truth = ctx.truthIndex(ctx.picking);
+    if (!a.drawn || a.fired || truth < 0) continue;
     if (!((stage_ == "move_pregrasp" && in_stage >= a.delay) || stage_ == "approach")) continue;
     fire(k, ctx, stage_);
-    a.object = ctx.picking;
+    a.object = truth;
     if (k == FaultKind::kObjectRemoved) {
-      world_.parkObject(ctx.picking);
+      world_.parkObject(truth);
       continue;
     }
     // Pushed aside within the bin: the first direction that keeps it 7 cm inside the walls (as
     // spawned) and out of the other objects.
-    const Pose T0 = world_.object(ctx.picking).T_world_object;
+    const Pose T0 = world_.object(truth).T_world_object;
     const Pose& crop = ctx.perception.T_world_crop;
     const Vec3 h = ctx.perception.crop_half;
     for (int turn = 0; turn < 8; ++turn) {
@@ -358,17 +360,17 @@ void FaultInjector::beforeStep(TrialContext& ctx) {
       T.translation() += o_.move_distance * Vec3(std::cos(angle), std::sin(angle), 0);
       const Vec3 local = crop.inverse() * T.translation();
       if (h.x() > 0 && (std::abs(local.x()) > h.x() - 0.07 || std::abs(local.y()) > h.y() - 0.07)) continue;
-      world_.setObjectPose(ctx.picking, T);
-      if (world_.objectPenetration(ctx.picking) < 0.001) break;
-      world_.setObjectPose(ctx.picking, T0);
+      world_.setObjectPose(truth, T);
+      if (world_.objectPenetration(truth) < 0.001) break;
+      world_.setObjectPose(truth, T0);
     }
   }
   // The held object slips out of the fingers as it is lifted out of the bin: it falls back in.
   Armed& slip = at(FaultKind::kGraspSlip);
-  if (slip.drawn && !slip.fired && hw_ && ctx.held >= 0 && stage_ == "lift" && in_stage >= slip.delay) {
+  if (slip.drawn && !slip.fired && hw_ && ctx.held_truth >= 0 && stage_ == "lift" && in_stage >= slip.delay) {
     fire(FaultKind::kGraspSlip, ctx, stage_);
-    slip.object = ctx.held;
-    if (ctx.options.weld) hw_->inner().attach(ctx.held, false);
+    slip.object = ctx.held_truth;
+    if (ctx.options.weld) hw_->inner().attach(ctx.held_truth, false);
     hw_->inner().writeGripper(ctx.robot.spec().gripper.travel, ctx.options.grasp_force);
     hw_->slip_until = hw_->time() + 0.3;
   }

@@ -1,6 +1,8 @@
 #include "sim/hardware.h"
 
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 #include "sim/sim_world.h"
 
@@ -22,11 +24,15 @@ class HardwareBase : public Hardware {
   VecX commandedPositions() const override { return q_cmd_; }
   void writeGripper(double opening, double max_force) override { grip_target_ = opening, grip_force_ = max_force; }
   std::vector<ObjectState> objects() const override {
+    checkTruth("objects()");
     std::vector<ObjectState> out;
     for (int i : active_) out.push_back(w_.object(i));
     return out;
   }
-  ObjectState object(int i) const override { return w_.object(i); }
+  ObjectState object(int i) const override {
+    checkTruth("object()");
+    return w_.object(i);
+  }
   bool capture(const std::string& name, int width, int height, Frame& frame, std::string* why) override {
     if (!camera_) {
       *why = "no camera source (rendering is not set up)";
@@ -35,9 +41,21 @@ class HardwareBase : public Hardware {
     return camera_(name, width, height, frame, why);
   }
   void setCameraSource(CameraSource source) override { camera_ = std::move(source); }
-  Pose tcpPose() const override { return w_.tcpPose(); }
-  std::vector<Obstacle> obstacles() const override { return w_.placedObstacles(); }
-  std::vector<int> objectsTouched() const override { return w_.objectsTouched(); }
+  Pose tcpPose() const override {
+    checkTruth("tcpPose()");
+    return w_.tcpPose();
+  }
+  std::vector<Obstacle> obstacles() const override {
+    checkTruth("obstacles()");
+    return w_.placedObstacles();
+  }
+  std::vector<int> objectsTouched() const override {
+    checkTruth("objectsTouched()");
+    return w_.objectsTouched();
+  }
+  void guardTruth(bool on) override { guarded_ = on; }
+  void openTruth() const override { ++scopes_; }
+  void closeTruth() const override { --scopes_; }
   int collisionEvents() const override { return w_.collisionEvents(); }
   const std::vector<std::string>& collisionLog() const override { return w_.collisionLog(); }
   bool unstable() const override { return w_.unstable(); }
@@ -50,6 +68,14 @@ class HardwareBase : public Hardware {
   VecX q_cmd_, qd_cmd_, qdd_cmd_;
   double grip_target_, grip_force_;
   CameraSource camera_;
+  bool guarded_ = false;
+  mutable int scopes_ = 0;
+
+  void checkTruth(const char* what) const {
+    if (guarded_ && scopes_ <= 0)
+      throw std::logic_error(std::string("the simulator's truth (") + what +
+                             ") read outside a TruthScope in camera mode: a decision must not rest on it");
+  }
 };
 
 class MujocoHardware final : public HardwareBase {
@@ -59,7 +85,10 @@ class MujocoHardware final : public HardwareBase {
   const char* name() const override { return "mujoco"; }
   VecX jointVelocities() const override { return w_.armVelocities(); }
   double gripperForce() const override { return w_.fingerForce(); }
-  Vec3 objectVelocity(int i) const override { return w_.objectVelocity(i); }
+  Vec3 objectVelocity(int i) const override {
+    checkTruth("objectVelocity()");
+    return w_.objectVelocity(i);
+  }
   double externalForce() const override { return w_.externalForce(); }
   double handForce() const override { return w_.handForce(); }
   // The setpoint is where the joints should be at the end of the period; the servo tracks the
@@ -85,7 +114,10 @@ class MockHardware final : public HardwareBase {
   const char* name() const override { return "mock"; }
   VecX jointVelocities() const override { return qd_cmd_; }
   double gripperForce() const override { return held_ >= 0 ? grip_force_ : 0.0; }
-  Vec3 objectVelocity(int i) const override { return i == held_ ? held_velocity_ : Vec3::Zero(); }
+  Vec3 objectVelocity(int i) const override {
+    checkTruth("objectVelocity()");
+    return i == held_ ? held_velocity_ : Vec3::Zero();
+  }
   double externalForce() const override { return 0; }  // kinematic: no forces
   double handForce() const override { return 0; }
   void attach(int, bool) override {}  // a held object already moves with the hand

@@ -55,7 +55,11 @@ class Hardware {
   /// Where capture() gets its images (the backends have none of their own).
   virtual void setCameraSource(CameraSource source) = 0;
 
-  /// Ground truth, used by the ground-truth perception mode and by the evaluation.
+  /// The simulator's truth: what a real cell's robot does not know. The ground-truth perception
+  /// mode perceives through it; scoring (the evaluation, metrics) and the simulated world's own
+  /// doings (a weld's attachment, a fault injected) read it. In camera mode it is guarded
+  /// (guardTruth): a read outside a TruthScope is a bug of ours, std::logic_error, so that nothing
+  /// the robot decides can rest on it.
   virtual std::vector<ObjectState> objects() const = 0;
   virtual ObjectState object(int i) const = 0;
   virtual Vec3 objectVelocity(int i) const = 0;
@@ -75,6 +79,28 @@ class Hardware {
   virtual const std::vector<std::string>& collisionLog() const = 0;
   virtual bool unstable() const = 0;
   virtual const std::string& instabilityReason() const = 0;
+
+  /// Guards the truth (objects(), object(), objectVelocity(), tcpPose(), obstacles(),
+  /// objectsTouched()) or lifts the guard.
+  virtual void guardTruth(bool on) = 0;
+  /// TruthScope's: reads are allowed while at least one scope is open.
+  virtual void openTruth() const = 0;
+  virtual void closeTruth() const = 0;
+};
+
+/// A reason to read the simulator's truth in camera mode, for as long as it lives: scoring, the
+/// simulated world acting (a weld attaching, a fault injected). Decisions never open one.
+class TruthScope {
+ public:
+  TruthScope(const Hardware& hw, const char* why) : hw_(hw), why_(why) { hw_.openTruth(); }
+  ~TruthScope() { hw_.closeTruth(); }
+  TruthScope(const TruthScope&) = delete;
+  TruthScope& operator=(const TruthScope&) = delete;
+  const char* why() const { return why_; }
+
+ private:
+  const Hardware& hw_;
+  const char* why_;
 };
 
 /// A Hardware that passes every call on to another one; a decorator (fault injection, a test's
@@ -113,6 +139,9 @@ class ForwardingHardware : public Hardware {
   const std::vector<std::string>& collisionLog() const override { return in_.collisionLog(); }
   bool unstable() const override { return in_.unstable(); }
   const std::string& instabilityReason() const override { return in_.instabilityReason(); }
+  void guardTruth(bool on) override { in_.guardTruth(on); }
+  void openTruth() const override { in_.openTruth(); }
+  void closeTruth() const override { in_.closeTruth(); }
 
  protected:
   Hardware& in_;

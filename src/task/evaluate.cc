@@ -21,6 +21,7 @@ void finishTrial(TrialContext& ctx, bool tree_succeeded) {
   TrialOutcome& out = ctx.out;
   Hardware& hw = ctx.hw;
   while (ctx.executor.busy()) ctx.executor.step();  // a stop still braking
+  const TruthScope scoring(hw, "the evaluation");
   // Let what was let go of come to rest, then measure it in the simulator, never assumed.
   bool evaluated_ok = true;
   if (!out.picks.empty() && !hw.unstable()) {
@@ -67,7 +68,7 @@ void finishTrial(TrialContext& ctx, bool tree_succeeded) {
   if (tree_succeeded && evaluated_ok) {
     if (evaluation.ok() && out.picks.empty())
       evaluation = {"evaluate", FailureKind::kPlacement, "the tree succeeded without placing any object"};
-    if (evaluation.ok() && ctx.held >= 0)
+    if (evaluation.ok() && ctx.held_truth >= 0)
       evaluation = {"evaluate", FailureKind::kPlacement, "the tree ended with an object in the hand"};
     if (evaluation.ok()) {
       out.success = true;
@@ -78,17 +79,21 @@ void finishTrial(TrialContext& ctx, bool tree_succeeded) {
       ctx.fail(evaluation);
     }
   }
-  out.objects_left_in_bin = objectsInBin(ctx);
+  out.objects_left_in_bin = objectsInBinTruly(ctx);
+  // Why the robot left each one: its reason for the object it took for it (its own id for it).
+  std::map<int, std::string> why_not;
+  for (const auto& [id, reason] : ctx.why_not)
+    if (const int truth = ctx.truthIndex(id); truth >= 0) why_not[truth] = reason;
   for (const ObjectState& o : hw.objects()) {
-    if (o.index == ctx.held || !insideCrop(o, ctx.perception)) continue;
+    if (o.index == ctx.held_truth || !insideCrop(o, ctx.perception)) continue;
     LeftRecord l;
     l.object = o.index;
     l.position = o.T_world_object.translation();
     double up = 0;
     for (int a = 0; a < 3; ++a) up = std::max(up, std::abs(o.T_world_object.linear()(2, a)));
     l.tilt = std::acos(std::min(1.0, up));
-    const auto why = ctx.why_not.find(o.index);
-    l.reason = why != ctx.why_not.end() ? why->second : "not tried";
+    const auto why = why_not.find(o.index);
+    l.reason = why != why_not.end() ? why->second : "not tried";
     out.left.push_back(l);
   }
   out.collision_count = hw.collisionEvents();

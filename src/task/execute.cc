@@ -107,14 +107,15 @@ class PlanExecution final : public Motion {
       case PlanStep::Kind::kGripper:
         // The place steps before this one brought the object over its target.
         if (s.release && plan_.places) ctx_.over_target = plan_.T_world_target;
-        if (s.release && ctx_.held >= 0) {
+        if (s.release && ctx_.held_truth >= 0) {
           // In-hand slip, a metric from the simulator's truth: where the object sits in the hand as the
           // fingers begin to open, against where it sat when they closed.
-          const Pose T_tcp_obj = hw.tcpPose().inverse() * hw.object(ctx_.held).T_world_object;
+          const TruthScope metric(hw, "in-hand slip");
+          const Pose T_tcp_obj = hw.tcpPose().inverse() * hw.object(ctx_.held_truth).T_world_object;
           ctx_.held_record.in_hand_slip = (T_tcp_obj.translation() - ctx_.T_tcp_held_actual.translation()).norm();
         }
         // Detach before opening, as the source's task (weld mode: the attach plugin).
-        if (s.release && ctx_.held >= 0 && ctx_.options.weld) hw.attach(ctx_.held, false);
+        if (s.release && ctx_.held_truth >= 0 && ctx_.options.weld) hw.attach(ctx_.held_truth, false);
         {
           auto gripper = std::make_unique<GripperMotion>(s.q_hold, s.opening, force);
           // A release hands on to the retreat once the pads are 3 mm clear of the object's faces;
@@ -139,7 +140,9 @@ class PlanExecution final : public Motion {
   // force, touches of objects other than the one picked or held (an episode per onset), and how far
   // the other objects moved while one was picked.
   void account(Hardware& hw) {
+    const TruthScope metrics(hw, "the step's metrics");
     TrialOutcome& out = ctx_.out;
+    const int target = ctx_.truthIndex(plan_.object), held = ctx_.held_truth;
     // As the protective stop sees it: sustained for two control periods (a contact's one-step
     // impulse is not counted).
     if (const double f = hw.externalForce(); std::isfinite(f)) {
@@ -149,7 +152,7 @@ class PlanExecution final : public Motion {
     for (int o : hw.objectsTouched()) {
       // An episode: its onset counts once; touches within 0.1 s of the last belong to it.
       const auto [it, first] = ctx_.last_touch.try_emplace(o, -1e9);
-      if (o != plan_.object && o != ctx_.held && hw.time() - it->second > 0.1) ++out.non_target_contacts;
+      if (o != target && o != held && hw.time() - it->second > 0.1) ++out.non_target_contacts;
       it->second = hw.time();
     }
     if (plan_.name != "pick" || plan_.object < 0) return;
@@ -157,9 +160,9 @@ class PlanExecution final : public Motion {
       for (const ObjectState& o : hw.objects()) start_positions_.emplace_back(o.index, o.T_world_object.translation());
     double moved = 0;
     for (const auto& [index, p] : start_positions_)
-      if (index != plan_.object && index != ctx_.held) moved = std::max(moved, (hw.object(index).T_world_object.translation() - p).norm());
+      if (index != target && index != held) moved = std::max(moved, (hw.object(index).T_world_object.translation() - p).norm());
     out.neighbours_moved = std::max(out.neighbours_moved, moved);
-    if (ctx_.held == plan_.object) ctx_.held_record.neighbours_moved = std::max(ctx_.held_record.neighbours_moved, moved);
+    if (held >= 0 && held == target) ctx_.held_record.neighbours_moved = std::max(ctx_.held_record.neighbours_moved, moved);
   }
 
   // Books the step that ended; fails the whole execution where it failed.
@@ -214,20 +217,26 @@ class PlanExecution final : public Motion {
   }
 
   void attach(Hardware& hw) {
-    int object = plan_.object;
+    const int truth = objectInFingers(hw, ctx_.truthIndex(plan_.object));
+    if (truth < 0) return;
+    hold(hw, plan_.object, truth, plan_.object_half, plan_.T_tcp_object, plan_.grasp_candidates_tried, plan_.object_shape,
+         plan_.grasp_type);
+  }
+
+  // The simulator's bookkeeping of what the fingers closed on (for the records, the weld and the
+  // drop monitor): the object the robot meant, when it is one; else, a false detection's, the real
+  // object nearest the TCP (within 3 cm), or none.
+  int objectInFingers(const Hardware& hw, int meant) const {
+    const TruthScope bookkeeping(hw, "what the fingers closed on");
     const std::vector<ObjectState> world = hw.objects();
-    if (std::none_of(world.begin(), world.end(), [&](const ObjectState& o) { return o.index == object; })) {
-      // The object the robot meant is not there (a phantom detection): what the fingers closed on
-      // is the real object nearest the TCP.
-      object = -1;
-      double best = 0.03;
-      for (const ObjectState& o : world) {
-        const double d = (o.T_world_object.translation() - hw.tcpPose().translation()).norm();
-        if (d < best) best = d, object = o.index;
-      }
-      if (object < 0) return;
+    if (std::any_of(world.begin(), world.end(), [&](const ObjectState& o) { return o.index == meant; })) return meant;
+    int object = -1;
+    double best = 0.03;
+    for (const ObjectState& o : world) {
+      const double d = (o.T_world_object.translation() - hw.tcpPose().translation()).norm();
+      if (d < best) best = d, object = o.index;
     }
-    hold(hw, object, plan_.object_half, plan_.T_tcp_object, plan_.grasp_candidates_tried, plan_.object_shape, plan_.grasp_type);
+    return object;
   }
 
   // The fingers closed on something: the perceived object nearest the TCP (within 2 cm), if any.
@@ -239,21 +248,28 @@ class PlanExecution final : public Motion {
       const double d = (o.T_world_object.translation() - T_tcp.translation()).norm();
       if (d <= best_d && !picked(ctx_, o.index)) best_d = d, best = &o;
     }
-    if (best) hold(hw, best->index, best->half_size, T_tcp.inverse() * best->T_world_object, 0, best->shape, "");
+    if (!best) return;
+    const int truth = objectInFingers(hw, ctx_.truthIndex(best->index));
+    if (truth >= 0) hold(hw, best->index, truth, best->half_size, T_tcp.inverse() * best->T_world_object, 0, best->shape, "");
   }
 
-  void hold(Hardware& hw, int object, const Vec3& half, const Pose& T_tcp_object, int candidates_tried, ObjectShape shape,
+  // The robot holds its object `object`; the simulator's bookkeeping says it is `truth`.
+  void hold(Hardware& hw, int object, int truth, const Vec3& half, const Pose& T_tcp_object, int candidates_tried, ObjectShape shape,
             const std::string& grasp_type) {
     ctx_.held = object;
+    ctx_.held_truth = truth;
     if (std::find(ctx_.picked.begin(), ctx_.picked.end(), object) == ctx_.picked.end()) ctx_.picked.push_back(object);
     // Let go of away from a target before, picked again now: that record is superseded.
     auto& picks = ctx_.out.picks;
-    picks.erase(std::remove_if(picks.begin(), picks.end(), [&](const PickRecord& p) { return p.object == object && !p.at_target; }),
+    picks.erase(std::remove_if(picks.begin(), picks.end(), [&](const PickRecord& p) { return p.object == truth && !p.at_target; }),
                 picks.end());
     ctx_.T_tcp_held = T_tcp_object;
-    ctx_.T_tcp_held_actual = hw.tcpPose().inverse() * hw.object(object).T_world_object;
+    {
+      const TruthScope metric(hw, "the grasp as achieved");
+      ctx_.T_tcp_held_actual = hw.tcpPose().inverse() * hw.object(truth).T_world_object;
+    }
     PickRecord r;
-    r.object = object;
+    r.object = truth;
     r.half_size = half;
     r.grasp_candidates_tried = candidates_tried;
     r.grasp_opening = ctx_.out.grasp_opening;
@@ -265,9 +281,9 @@ class PlanExecution final : public Motion {
     ctx_.held_shape = shape;
     // Held from the side: the hand near horizontal when the fingers closed (a tilted box's grasp
     // leans at most 50 degrees).
-    ctx_.held_from_side = -hw.tcpPose().linear()(2, 2) < std::cos(70.0 * M_PI / 180);
+    ctx_.held_from_side = -ctx_.robot.fk(hw.jointPositions()).linear()(2, 2) < std::cos(70.0 * M_PI / 180);
     ctx_.held_record = r;
-    if (ctx_.options.weld) hw.attach(object, true);
+    if (ctx_.options.weld) hw.attach(truth, true);
     if (ctx_.options.payload_compensation)
       for (const ObjectState& o : ctx_.objects)
         if (o.index == object) hw.setPayload(o.mass, T_tcp_object.translation());
@@ -279,7 +295,7 @@ class PlanExecution final : public Motion {
     if (ctx_.held < 0) return;
     // The servo carries the object's weight until the fingers have opened (Franka's setLoad after
     // the gripper's move): dropped as the opening begins, the arm sagged under the still-held
-    // object by 0.3 mm in x and y (issue 13, the place error's last systematic part).
+    // object by 0.3 mm in x and y (the place error's last systematic part).
     ctx_.hw.setPayload(0, Vec3::Zero());
     PickRecord r = ctx_.held_record;
     r.at_target = ctx_.over_target.has_value();
@@ -292,17 +308,17 @@ class PlanExecution final : public Motion {
       forget(ctx_.held);
     }
     ctx_.out.picks.push_back(r);
-    ctx_.held = -1;
+    ctx_.held = ctx_.held_truth = -1;
     ctx_.over_target.reset();
   }
 
   // The held object left the hand (a drop): no longer held, back in the world.
   void lost() {
     if (ctx_.held < 0) return;
-    if (ctx_.options.weld) ctx_.hw.attach(ctx_.held, false);
+    if (ctx_.options.weld && ctx_.held_truth >= 0) ctx_.hw.attach(ctx_.held_truth, false);
     ctx_.hw.setPayload(0, Vec3::Zero());
     forget(ctx_.held);
-    ctx_.held = -1;
+    ctx_.held = ctx_.held_truth = -1;
     ctx_.over_target.reset();
   }
 
@@ -339,10 +355,12 @@ class PlanExecution final : public Motion {
     }
   }
 
+  // The simulator's drop monitor.
   Failure dropCheck() {
-    if (ctx_.held < 0) return {};
+    if (ctx_.held_truth < 0) return {};
     const Hardware& hw = ctx_.hw;
-    const Pose T_tcp_obj = hw.tcpPose().inverse() * hw.object(ctx_.held).T_world_object;
+    const TruthScope monitor(hw, "the drop monitor");
+    const Pose T_tcp_obj = hw.tcpPose().inverse() * hw.object(ctx_.held_truth).T_world_object;
     const double d = (T_tcp_obj.translation() - ctx_.T_tcp_held_actual.translation()).norm();
     if (d > ctx_.options.drop_distance)
       return {"", FailureKind::kDropped, "dropped: object " + std::to_string(int(d * 1000)) + " mm from its in-hand pose"};

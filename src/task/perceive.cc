@@ -19,11 +19,12 @@ namespace mm {
 
 namespace {
 
-// Camera mode: the camera's depth image through detectBoxes. A detection gets the identity of the
-// true object nearest it (within 3 cm) for the trial's bookkeeping and its pose errors; the pose
-// the robot uses is the camera's. A detection near no object (a false one) is recorded and left
-// out; an object in the bin no detection found is counted as missed.
-PerceptionResult perceiveByCamera(TrialContext& ctx, const std::vector<ObjectState>& truth) {
+// Camera mode: the camera's depth image through detectBoxes. Every detection is what the robot
+// knows, under an id of its own; a false one included (the robot finds out by trying). The
+// simulator's truth only scores it afterwards: each detection is matched to the true object
+// nearest it (within 3 cm) for its pose errors and the trial's bookkeeping (truth_of), a detection
+// near none is recorded as false, an object in the bin no detection found as missed.
+PerceptionResult perceiveByCamera(TrialContext& ctx) {
   const PerceptionOptions& o = ctx.perception;
   PerceptionResult p;
   Frame frame;
@@ -38,34 +39,43 @@ PerceptionResult perceiveByCamera(TrialContext& ctx, const std::vector<ObjectSta
   co.crop_half = o.crop_half;
   co.crop_height = o.crop_height;
   const CameraPerceptionResult r = detectBoxes(frame, o.shapes, co, ctx.rng_perception);
-  std::vector<char> taken(truth.size(), 0);
   for (const CameraDetection& d : r.detections) {
-    int best = -1;
-    double best_dist = 0.03;
-    for (size_t i = 0; i < truth.size(); ++i) {
-      const double dist = (truth[i].T_world_object.translation() - d.object.T_world_object.translation()).norm();
-      if (!taken[i] && dist < best_dist) best = static_cast<int>(i), best_dist = dist;
-    }
-    DetectionRecord rec;
-    rec.time = ctx.simTime();
-    if (best < 0) {
-      rec.centre_error = rec.rotation_error = rec.mssd = -1;
-      ctx.out.detections.push_back(rec);
-      continue;
-    }
-    taken[static_cast<size_t>(best)] = 1;
-    const ObjectState& t = truth[static_cast<size_t>(best)];
-    const PoseError e = poseError(d.object.T_world_object, t.T_world_object, t.half_size);
-    rec.object = t.index;
-    rec.centre_error = e.centre, rec.rotation_error = e.rotation, rec.mssd = e.mssd;
-    ctx.out.detections.push_back(rec);
     ObjectState seen = d.object;
-    seen.index = t.index;
-    seen.name = t.name;
+    seen.index = ctx.next_detection_id++;
+    seen.name = "detection_" + std::to_string(seen.index);
     p.objects.push_back(seen);
   }
-  for (size_t i = 0; i < truth.size(); ++i)
-    if (!taken[i] && insideCrop(truth[i], o)) ++ctx.out.missed_detections;
+  {
+    const TruthScope scoring(ctx.hw, "scoring the detections");
+    std::vector<ObjectState> truth;
+    for (const ObjectState& t : ctx.hw.objects())
+      if (t.index != ctx.held_truth) truth.push_back(t);
+    std::vector<char> taken(truth.size(), 0);
+    for (const ObjectState& seen : p.objects) {
+      int best = -1;
+      double best_dist = 0.03;
+      for (size_t i = 0; i < truth.size(); ++i) {
+        const double dist = (truth[i].T_world_object.translation() - seen.T_world_object.translation()).norm();
+        if (!taken[i] && dist < best_dist) best = static_cast<int>(i), best_dist = dist;
+      }
+      DetectionRecord rec;
+      rec.time = ctx.simTime();
+      if (best < 0) {
+        rec.centre_error = rec.rotation_error = rec.mssd = -1;
+        ctx.truth_of[seen.index] = -1;
+      } else {
+        taken[static_cast<size_t>(best)] = 1;
+        const ObjectState& t = truth[static_cast<size_t>(best)];
+        const PoseError e = poseError(seen.T_world_object, t.T_world_object, t.half_size);
+        rec.object = t.index;
+        rec.centre_error = e.centre, rec.rotation_error = e.rotation, rec.mssd = e.mssd;
+        ctx.truth_of[seen.index] = t.index;
+      }
+      ctx.out.detections.push_back(rec);
+    }
+    for (size_t i = 0; i < truth.size(); ++i)
+      if (!taken[i] && insideCrop(truth[i], o)) ++ctx.out.missed_detections;
+  }
   p.ok = !p.objects.empty();
   if (!p.ok) p.reason = r.ok ? "no object detected" : r.reason;
   return p;
@@ -76,11 +86,15 @@ PerceptionResult perceiveByCamera(TrialContext& ctx, const std::vector<ObjectSta
 Failure detectObjects(TrialContext& ctx) {
   StageRecord& st = ctx.stage("perception");
   const auto t = Clock::now();
-  std::vector<ObjectState> truth;
-  for (const ObjectState& o : ctx.hw.objects())
-    if (o.index != ctx.held) truth.push_back(o);
-  PerceptionResult p = ctx.perception.mode == PerceptionMode::kCamera ? perceiveByCamera(ctx, truth)
-                                                                      : perceive(truth, ctx.perception, ctx.rng_perception);
+  PerceptionResult p;
+  if (ctx.perception.mode == PerceptionMode::kCamera) {
+    p = perceiveByCamera(ctx);
+  } else {  // the simulator is the sensor (or, hardcoded, nothing is)
+    std::vector<ObjectState> truth;
+    for (const ObjectState& o : ctx.hw.objects())
+      if (o.index != ctx.held) truth.push_back(o);
+    p = perceive(truth, ctx.perception, ctx.rng_perception);
+  }
   if (ctx.faults) ctx.faults->onPerception(ctx, p);
   ctx.senseObstacles();
   st.compute_seconds = since(t);
@@ -127,10 +141,28 @@ int perceivedObjectAt(const TrialContext& ctx, const Pose& T_world_object) {
   return best;
 }
 
-int objectsInBin(const TrialContext& ctx) {
+int objectsInBin(TrialContext& ctx) {
+  if (ctx.perception.mode != PerceptionMode::kCamera) return objectsInBinTruly(ctx);  // the simulator is the sensor
+  // Camera mode: the objects the robot saw and has not picked; when it knows of none, it looks
+  // again (once a pick: a detection it missed, an object dropped back in).
+  int n = 0;
+  for (const ObjectState& o : ctx.objects) n += !picked(ctx, o.index);
+  if (n > 0 || ctx.looked_at_picks == static_cast<int>(ctx.picked.size())) return n;
+  ctx.looked_at_picks = static_cast<int>(ctx.picked.size());
+  const auto t = Clock::now();
+  PerceptionResult p = perceiveByCamera(ctx);
+  ctx.out.perception_time += since(t);
+  if (ctx.faults) ctx.faults->onPerception(ctx, p);
+  if (!p.ok) return 0;
+  ctx.objects = p.objects;
+  return static_cast<int>(p.objects.size());
+}
+
+int objectsInBinTruly(const TrialContext& ctx) {
+  const TruthScope scoring(ctx.hw, "the bin as it is");
   int n = 0;
   for (const ObjectState& o : ctx.hw.objects())
-    if (o.index != ctx.held && insideCrop(o, ctx.perception)) ++n;
+    if (o.index != ctx.held_truth && insideCrop(o, ctx.perception)) ++n;
   return n;
 }
 

@@ -24,8 +24,12 @@ std::vector<int> objectsByRoom(const TrialContext& ctx);
 int mostAccessibleObject(TrialContext& ctx);
 /// The perceived object nearest `T_world_object` (within 5 cm), or -1.
 int perceivedObjectAt(const TrialContext& ctx, const Pose& T_world_object);
-/// Objects in the bin now (the held one is not), as the sensor's crop box sees them.
-int objectsInBin(const TrialContext& ctx);
+/// Objects in the bin as the robot knows it (IsBinNotEmpty): in the ground-truth modes the
+/// sensor's count over its crop box; in camera mode the detected objects not yet picked, and,
+/// when there are none, a fresh look (at most once a pick).
+int objectsInBin(TrialContext& ctx);
+/// Objects in the bin now (the held one is not), from the simulator's truth: for scoring.
+int objectsInBinTruly(const TrialContext& ctx);
 
 // ---- pick ---------------------------------------------------------------------------------
 

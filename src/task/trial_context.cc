@@ -60,9 +60,19 @@ TrialContext::TrialContext(Hardware& hw_, const RobotModel& robot_, const std::v
   executor.setBeforeStep([this] {
     if (faults) faults->beforeStep(*this);
   });
+  // What the camera sees is what the robot knows: the simulator's truth is closed to decisions.
+  if (perception.mode == PerceptionMode::kCamera) hw.guardTruth(true);
 }
 
-TrialContext::~TrialContext() = default;
+TrialContext::~TrialContext() { hw.guardTruth(false); }
+
+int TrialContext::truthIndex(int id) const {
+  if (perception.mode == PerceptionMode::kCamera) {
+    const auto it = truth_of.find(id);
+    return it == truth_of.end() ? -1 : it->second;
+  }
+  return id >= 0 && id < 1000 ? id : -1;  // 1000 and up: a ghost an injected false detection made
+}
 
 StageRecord& TrialContext::stage(const std::string& name) {
   out.stages.push_back({name, true, 0, 0});
@@ -123,7 +133,7 @@ double TrialContext::computeSoFar() const {
 void TrialContext::milestone(const std::string& what) { milestones.push_back({what, simTime(), computeSoFar()}); }
 
 bool TrialContext::senseObstacles() {
-  if (perception.mode == PerceptionMode::kHardcoded) return false;
+  if (perception.mode == PerceptionMode::kHardcoded || perception.mode == PerceptionMode::kCamera) return false;
   std::vector<Obstacle> now = hw.obstacles();
   auto same = [](const Obstacle& a, const Obstacle& b) {
     return a.name == b.name && (a.T_world.translation() - b.T_world.translation()).norm() < 0.01 &&

@@ -130,10 +130,12 @@ class TrialContext {
   TrialOutcome out;
   double t_start = 0;  ///< [s] simulated time at the trial's start
 
-  // What the robot knows.
+  // What the robot knows. Objects go by the robot's ids for them: in the ground-truth modes the
+  // simulator's indices (object_<k>); in camera mode a detection's own (kFirstDetectionId and up),
+  // which nothing the robot decides relates to the simulator's.
   std::vector<ObjectState> objects;  ///< the last perception (world frame), objects not yet picked
-  std::vector<int> picked;           ///< pool indices of objects picked (held or let go)
-  int held = -1;                     ///< index of the object in the hand (object_<k>), -1 for none
+  std::vector<int> picked;           ///< ids of objects picked (held or let go)
+  int held = -1;                     ///< id of the object in the hand, -1 for none
   Pose T_tcp_held = Pose::Identity();        ///< the held object in the hand as planned
   Pose T_tcp_held_actual = Pose::Identity(); ///< as measured when the fingers closed (drop check)
   ObjectShape held_shape = ObjectShape::kBox;   ///< the held object's shape
@@ -154,6 +156,18 @@ class TrialContext {
   std::map<int, std::string> why_not;  ///< per object, why its last grasp or push could not be planned
   size_t failures_at_last_place = 0;   ///< out.failures' size when the last object was let go of at its target
 
+  // The simulator's side of the same objects: bookkeeping for the records, the weld, the drop
+  // monitor and fault injection, read only in a TruthScope (never by a decision).
+  /// Camera mode: the first id a detection gets (ids below it are the simulator's, or a ghost
+  /// an injected false detection made).
+  static constexpr int kFirstDetectionId = 2000;
+  int next_detection_id = kFirstDetectionId;
+  std::map<int, int> truth_of;  ///< camera mode: a detection's id -> the simulator's object it matched (-1: none)
+  int held_truth = -1;          ///< the simulator's index of the object really in the hand, -1 for none
+  int looked_at_picks = -1;     ///< camera mode: picked.size() when the bin was last looked at again (objectsInBin)
+  /// The simulator's index of the robot's object `id`, or -1 (a false detection, a ghost).
+  int truthIndex(int id) const;
+
   /// What the trial achieved and when (fault recovery is measured against these).
   struct Milestone {
     std::string what;  ///< "perception", "plan:<stage>", "pick", "place", "home"
@@ -163,8 +177,9 @@ class TrialContext {
   std::vector<Milestone> milestones;
   void milestone(const std::string& what);
   double computeSoFar() const;
-  /// Senses the obstacles that are not part of the cell (none in the hardcoded perception mode,
-  /// which senses nothing) into seen_obstacles; true when they changed.
+  /// Senses the obstacles that are not part of the cell into seen_obstacles; true when they
+  /// changed. None in the hardcoded mode, which senses nothing, nor in camera mode, whose only
+  /// sensor is the camera (its unexplained points are not obstacles yet).
   bool senseObstacles();
 
   // Bookkeeping.

@@ -10,6 +10,7 @@
 #include "perception/camera_perception.h"
 #include "render/renderer.h"
 #include "../render/test_renderer.h"
+#include "sim/hardware.h"
 #include "sim/object_catalogue.h"
 #include "sim/sim_world.h"
 
@@ -173,6 +174,56 @@ TEST(CameraPerception, ACampaignInCameraModePicksWhatTheCameraSawAndRecordsItsEr
   EXPECT_EQ(bad.code, 2) << bad.out;
   EXPECT_THAT(bad.out, ::testing::HasSubstr("perception.camera: the scene has no camera 'nope'"));
   EXPECT_THAT(bad.out, ::testing::HasSubstr("camera.yaml"));
+}
+
+
+// What the camera sees is what the robot knows: in camera mode the simulator's truth is closed to
+// everything but a TruthScope (scoring, the world's own doings). A read outside one is a bug.
+TEST(Truth, IsClosedOutsideATruthScopeWhenGuarded) {
+  const ObjectCatalogue cat = loadObjectCatalogue("scenes/objects.yaml");
+  const RobotModel robot = RobotModel::load("robots/panda/panda.yaml");
+  auto world = SimWorld::load("scenes/bin_table.xml", robot, {*cat.find("cube_5cm")});
+  world->reset(robot.home());
+  auto hw = makeMujocoHardware(*world, robot, {0});
+  EXPECT_NO_THROW(hw->objects());  // unguarded: the ground-truth modes' sensor
+  hw->guardTruth(true);
+  EXPECT_THROW(hw->objects(), std::logic_error);
+  EXPECT_THROW(hw->object(0), std::logic_error);
+  EXPECT_THROW(hw->objectVelocity(0), std::logic_error);
+  EXPECT_THROW(hw->tcpPose(), std::logic_error);
+  EXPECT_THROW(hw->obstacles(), std::logic_error);
+  EXPECT_THROW(hw->objectsTouched(), std::logic_error);
+  try {
+    hw->objects();
+  } catch (const std::logic_error& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("a decision must not rest on it"));
+  }
+  {
+    const TruthScope scoring(*hw, "a test's scoring");
+    EXPECT_EQ(hw->objects().size(), 1u);
+    EXPECT_NO_THROW(hw->tcpPose());
+  }
+  EXPECT_THROW(hw->objects(), std::logic_error);  // closed again
+  hw->guardTruth(false);
+  EXPECT_NO_THROW(hw->objects());
+}
+
+// Camera-mode trials with the recovering tree and the faults that touch perception and the grasp:
+// every trial runs to its end (a truth read by a decision would be an internal error, the trial a
+// crash), and a false detection the camera made stays the robot's to find out.
+TEST(Truth, CameraModeTrialsWithFaultsNeverReadTheTruthToDecide) {
+  testing_cli::TempDir tmp;
+  const std::string out = (tmp.path() / "cam").string();
+  const auto run = testing_cli::runMinimanip(
+      "run experiments/camera.yaml --trials 8 --jobs 2 --set progress=none --set tree=experiments/trees/recovering_pick_place.xml "
+      "--set faults.perception_dropout=0.25 --set faults.false_detection=0.25 --set faults.object_moved=0.25 "
+      "--set faults.grasp_slip=0.25 --set faults.gripper_no_close=0.25 --out " + out);
+  ASSERT_EQ(run.code, 0) << run.out;
+  for (const auto& t : testing_cli::readTrials(out)) {
+    EXPECT_NE(t["failure_kind"], "crash") << t.dump();
+    EXPECT_NE(t["tree_status"], "ERROR") << t.dump();
+    EXPECT_TRUE(t["success"].get<bool>()) << t.dump();
+  }
 }
 
 }  // namespace
