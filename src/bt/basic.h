@@ -138,7 +138,7 @@ template <> TypeInfo typeInfo<NodeStatus>();
 struct AnyTypeAllowed {};
 template <> TypeInfo typeInfo<AnyTypeAllowed>();
 
-/// Reads `a` as T by BT.CPP's rules (see the probe table in the README): numbers convert when
+/// Reads `a` as T by BT.CPP's rules (docs/behavior-trees.md, the port conversions): numbers convert when
 /// exact, strings parse, other types must match.
 template <class T>
 Expected<T> anyCast(const Any& a) {

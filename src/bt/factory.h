@@ -23,7 +23,7 @@ struct NodeManifest {
   std::string id;
   NodeKind kind = NodeKind::kAction;
   PortsList ports;
-  std::string description;  ///< what the node does (for the README and the tree's model)
+  std::string description;  ///< what the node does (for docs/reference/nodes.md and the tree's model)
   std::function<std::unique_ptr<TreeNode>(const std::string& name, const NodeConfig& config)> build;
   int min_children = 0, max_children = 0;  ///< -1: no upper bound
 };

@@ -3,7 +3,7 @@
 // gripper, moves home and to safety, and the conditions and counters of a bin-clearing loop.
 // Actions that move the arm are asynchronous (RUNNING while the executor moves it on simulated
 // time; halting one brings the arm to a controlled stop); planning and perception take no
-// simulated time. Every node's meaning is written in the README.
+// simulated time. Every node's meaning is in docs/reference/nodes.md (`minimanip nodes-doc`).
 #pragma once
 #include <string>
 #include <vector>

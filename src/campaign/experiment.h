@@ -64,7 +64,7 @@ struct Experiment {
   void declare(ConfigArchive& a);
 };
 
-/// The declarations (also printed by `minimanip config-doc` for the README).
+/// The declarations (also printed by `minimanip config-doc` for docs/reference/config.md).
 std::vector<ParamDecl> experimentParams();
 /// The experiment's robot with its gripper; throws InputError when the grasp force is past the
 /// gripper's limit.

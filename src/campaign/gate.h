@@ -36,7 +36,7 @@ struct GateThresholds {
   void declare(ConfigArchive& a);
 };
 
-/// The keys of a thresholds file (`minimanip gate-doc` prints them for the README).
+/// The keys of a thresholds file (`minimanip gate-doc` prints them for docs/reference/gate.md).
 std::vector<ParamDecl> gateParams();
 /// Per-trial fields a baseline holds: deterministic counters and wall timings.
 std::vector<std::string> gateCounterNames();

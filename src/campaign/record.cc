@@ -257,7 +257,7 @@ void CampaignSummary::describe(RecordArchive& a) {
     if (f.reading() && faults.size() <= i) faults.resize(i + 1);
     FaultStats& s = faults[i];
     f.field("kind", s.kind, "", "");
-    f.field("recoverable", s.recoverable, "", "some action of the robot can succeed after it (README fault catalogue)");
+    f.field("recoverable", s.recoverable, "", "some action of the robot can succeed after it (docs/faults.md)");
     f.field("injected", s.injected, "", "");
     f.field("no_effect", s.no_effect, "", "nothing failed after it");
     f.field("detected", s.detected, "", "a failure followed it");

@@ -1,7 +1,7 @@
 // Result records described once: a trial's line in trials.jsonl (TrialRecord) and a campaign's
 // summary.json (CampaignSummary) each list their fields in one describe() — key, field, unit,
 // meaning — from which come the JSON writer, the reader (trials.jsonl is read back to summarize,
-// and later to resume and merge) and the field reference in the README (`minimanip results-doc`).
+// and later to resume and merge) and the field reference in docs/reference/results.md (`minimanip results-doc`).
 #pragma once
 #include <cstdint>
 #include <functional>
@@ -136,7 +136,7 @@ std::string toJson(CampaignSummary& s);  ///< pretty-printed
 /// Parses a summary.json; throws InputError naming `where` when it is not one of this schema.
 CampaignSummary summaryFromJson(const std::string& text, const std::string& where);
 
-/// The fields of trials.jsonl and summary.json as Markdown lists (for the README).
+/// The fields of trials.jsonl and summary.json as Markdown lists (docs/reference/results.md).
 std::string recordsMarkdown();
 
 }  // namespace mm

@@ -6,7 +6,7 @@
 //     }
 // naming the key, the field, its range (or choices), unit and meaning in one line; the field's
 // initializer is the default. The same declaration gives the key table (ParamDecl: the YAML
-// loader, --set, config.resolved.yaml, `minimanip config-doc` and the README reference) and the
+// loader, --set, config.resolved.yaml, `minimanip config-doc` and docs/reference/config.md) and the
 // reading of validated values back into the struct, so none of them can drift.
 #pragma once
 #include <cstdint>

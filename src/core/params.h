@@ -1,5 +1,5 @@
 // Declared parameters: each key is declared once with its type, default, range, unit and help.
-// The YAML loader, `--set key=value`, config.resolved.yaml and the README's config reference all
+// The YAML loader, `--set key=value`, config.resolved.yaml and docs/reference/config.md all
 // come from the same declarations, so they cannot drift. Unknown keys are input errors.
 #pragma once
 #include <cstdint>

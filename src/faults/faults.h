@@ -3,7 +3,7 @@
 // reshuffles no other). A fault is injected at a drawn moment of the stage it targets, through
 // the hooks the task layer offers (perception, planning, every control period), the hardware it
 // wraps, or the simulated world; each is recorded in the trial with when and where it struck,
-// whether and when it was detected, the recovery the tree took and its outcome (see the README's
+// whether and when it was detected, the recovery the tree took and its outcome (see docs/faults.md's
 // fault catalogue for what a correct recovery is for each kind).
 #pragma once
 #include <array>

@@ -64,7 +64,7 @@ void TaskOptions::declare(ConfigArchive& a) {
   a.leave();
 
   a.enter("kinematics");
-  a.choice("solver", ik_solver, ikSolverNames(), "IK solver for grasp and place poses (see the IK comparison in the README)");
+  a.choice("solver", ik_solver, ikSolverNames(), "IK solver for grasp and place poses (docs/benchmarks.md compares them)");
   a.leave();
 
   a.enter("planning");

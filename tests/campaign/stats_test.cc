@@ -9,7 +9,7 @@ namespace mm {
 namespace {
 
 TEST(Stats, WilsonIntervalMatchesThePublishedFormula) {
-  // 100 of 100: [96.30%, 100%] (Wilson 1927; the interval the README quotes).
+  // 100 of 100: [96.30%, 100%] (Wilson 1927; the interval the quickstart reports).
   const auto [lo, hi] = wilson95(100, 100);
   EXPECT_NEAR(lo, 0.9630, 5e-5);
   EXPECT_DOUBLE_EQ(hi, 1.0);
