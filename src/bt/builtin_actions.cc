@@ -158,9 +158,24 @@ class ScriptCondition final : public ConditionNode {
   std::optional<Script> script_;
 };
 
+// WasEntryUpdated: SUCCESS when the entry was written since this node last looked, else FAILURE
+// (a missing entry: FAILURE).
+class WasEntryUpdated final : public SyncActionNode {
+ public:
+  WasEntryUpdated(const std::string& name, const NodeConfig& config) : SyncActionNode(name, config), watch_(entryKey(config, name)) {}
+  static PortsList providedPorts() { return {inputPort<AnyTypeAllowed>("entry", "Entry to check")}; }
+
+ protected:
+  NodeStatus tick() override { return watch_.updated(*config().blackboard) ? NodeStatus::kSuccess : NodeStatus::kFailure; }
+
+ private:
+  EntryWatch watch_;
+};
+
 }  // namespace
 
 void registerActionNodes(Factory& f) {
+  addBuiltin<WasEntryUpdated>(f, "WasEntryUpdated", "SUCCESS when entry was written since the node last looked, else FAILURE");
   addBuiltin<AlwaysSuccess>(f, "AlwaysSuccess", "SUCCESS");
   addBuiltin<AlwaysFailure>(f, "AlwaysFailure", "FAILURE");
   addBuiltin<SetBlackboard>(f, "SetBlackboard", "writes value into output_key");

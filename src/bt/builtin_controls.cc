@@ -426,6 +426,73 @@ class Switch final : public ControlNode {
   int running_ = -1;
 };
 
+// ---- try and catch -----------------------------------------------------------------------------
+
+// TryCatch: children 1..N-1 as a Sequence (the try block); when one fails, the last child (the
+// catch) runs to its end and the node fails whatever it returns. A try block that succeeds
+// (skipped children passed over) succeeds, SKIPPED when every try child was skipped. With
+// catch_on_halt, a halt during the try block ticks the catch once before halting (a catch still
+// RUNNING then is halted too). Fewer than two children is refused when the tree loads.
+class TryCatch final : public ControlNode {
+ public:
+  using ControlNode::ControlNode;
+  static PortsList providedPorts() {
+    return {inputPort<bool>("catch_on_halt", "false", "If true, execute the catch child when the node is halted during the try-block")};
+  }
+  void halt() override {
+    const auto on_halt = getInput<bool>("catch_on_halt");
+    if (on_halt && *on_halt && !catching_ && isActive(status()) && childrenCount() >= 2) {
+      for (size_t i = 0; i + 1 < childrenCount(); ++i) haltChild(i);
+      if (children_.back()->executeTick() == NodeStatus::kRunning) haltChild(childrenCount() - 1);
+    }
+    idx_ = 0;
+    skipped_ = 0;
+    catching_ = false;
+    ControlNode::halt();
+  }
+
+ protected:
+  NodeStatus tick() override {
+    const size_t n = childrenCount();
+    if (n < 2) throw RuntimeError("[" + name() + "]: TryCatch requires at least 2 children");  // refused at load already
+    if (!isActive(status())) {
+      skipped_ = 0;
+      catching_ = false;
+    }
+    setStatus(NodeStatus::kRunning);
+    if (catching_) {
+      if (children_.back()->executeTick() == NodeStatus::kRunning) return NodeStatus::kRunning;
+      resetChildren();
+      idx_ = 0;
+      catching_ = false;
+      return NodeStatus::kFailure;
+    }
+    const size_t tries = n - 1;
+    while (idx_ < tries) {
+      const NodeStatus s = children_[idx_]->executeTick();
+      if (s == NodeStatus::kRunning) return s;
+      if (s == NodeStatus::kFailure) {
+        resetChildren();
+        idx_ = 0;
+        catching_ = true;
+        return tick();  // the catch, in the same tick
+      }
+      if (s == NodeStatus::kIdle) throw RuntimeError("[" + name() + "]: A child should not return IDLE");
+      if (s == NodeStatus::kSkipped) ++skipped_;
+      ++idx_;
+    }
+    const bool all_skipped = skipped_ == tries;
+    resetChildren();
+    idx_ = 0;
+    skipped_ = 0;
+    return all_skipped ? NodeStatus::kSkipped : NodeStatus::kSuccess;
+  }
+
+ private:
+  size_t idx_ = 0, skipped_ = 0;
+  bool catching_ = false;
+};
+
 }  // namespace
 
 void registerControlNodes(Factory& f) {
@@ -439,6 +506,7 @@ void registerControlNodes(Factory& f) {
   addBuiltin<Parallel>(f, "Parallel", "all children at once, thresholds of successes and failures");
   addBuiltin<ParallelAll>(f, "ParallelAll", "all children to completion");
   addBuiltin<IfThenElse>(f, "IfThenElse", "condition once, then a branch", 2, 3);
+  addBuiltin<TryCatch>(f, "TryCatch", "children but the last as a Sequence; when one fails, the last (the catch) runs and the node fails", 2, -1);
   addBuiltin<WhileDoElse>(f, "WhileDoElse", "condition every tick, the matching branch", 2, 3);
   addBuiltin<Switch<2>>(f, "Switch2", "the child whose case matches the variable", 3, 3);
   addBuiltin<Switch<3>>(f, "Switch3", "the child whose case matches the variable", 4, 4);

@@ -1,7 +1,12 @@
 // BT.CPP v4's built-in decorators, written from their documented and observed behaviour (BT.CPP
 // 4.10: src/decorators/*; traces compared in tests/bt/).
+#include <any>
 #include <charconv>
 #include <cmath>
+#include <deque>
+#include <memory>
+#include <type_traits>
+#include <typeinfo>
 #include <functional>
 #include <limits>
 #include <set>
@@ -295,9 +300,146 @@ class Precondition final : public DecoratorNode {
   bool running_ = false;  // as BT.CPP: not cleared by a halt
 };
 
+// ---- loops over a queue ------------------------------------------------------------------------
+
+template <class T>
+using SharedQueue = std::shared_ptr<std::deque<T>>;
+
+template <class T>
+T parseItem(const std::string& s) {
+  if constexpr (std::is_same_v<T, int>) return static_cast<int>(parseInteger(s, std::numeric_limits<int>::min(), std::numeric_limits<int>::max()));
+  else if constexpr (std::is_same_v<T, bool>) return parseBool(s);
+  else if constexpr (std::is_same_v<T, double>) return parseReal(s);
+  else return s;
+}
+
+// "a;b;c" as BT.CPP splits it: items between the semicolons, a trailing one ends the list.
+template <class T>
+SharedQueue<T> parseQueue(const std::string& text) {
+  auto q = std::make_shared<std::deque<T>>();
+  for (size_t pos = 0; pos < text.size();) {
+    size_t end = text.find(';', pos);
+    if (end == std::string::npos) end = text.size();
+    q->push_back(parseItem<T>(text.substr(pos, end - pos)));
+    pos = end + 1;
+  }
+  return q;
+}
+
+template <class T>
+std::string queueTypeName();
+template <> std::string queueTypeName<int>() { return "int"; }
+template <> std::string queueTypeName<bool>() { return "bool"; }
+template <> std::string queueTypeName<double>() { return "double"; }
+template <> std::string queueTypeName<std::string>() { return "std::string"; }
+
+// LoopInt, LoopBool, LoopDouble, LoopString: pops the front of `queue` into `value` and ticks the
+// child, once a tick, while the queue has items; FAILURE when the child fails; `if_empty` when the
+// queue is empty with the child not running. The queue is a literal ("1;2;3", copied afresh each
+// time the node starts), or a blackboard entry: a queue (popped in place, as BT.CPP shares it), a
+// vector or a string (converted when the node starts, then popped from the copy).
+template <class T>
+class LoopNode final : public DecoratorNode {
+ public:
+  LoopNode(const std::string& name, const NodeConfig& config) : DecoratorNode(name, config) {
+    const auto it = config.input_ports.find("queue");
+    if (it != config.input_ports.end() && !blackboardKey(it->second, "queue")) static_queue_ = parseQueue<T>(it->second);
+  }
+  static PortsList providedPorts() {
+    return {bidirectionalPort<AnyTypeAllowed>("queue", ""),
+            inputPort<NodeStatus>("if_empty", "SUCCESS", "Status to return if queue is empty: SUCCESS, FAILURE, SKIPPED"),
+            outputPort<T>("value", "")};
+  }
+
+ protected:
+  NodeStatus tick() override {
+    bool popped = false;
+    if (status() == NodeStatus::kIdle) {
+      child_running_ = false;
+      current_.reset();
+      if (static_queue_) current_ = std::make_shared<std::deque<T>>(*static_queue_);
+    }
+    if (!child_running_) {
+      if (!static_queue_) readEntry();
+      if (current_ && !current_->empty()) {
+        const T value = current_->front();
+        current_->pop_front();
+        popped = true;
+        if (const auto err = setOutput("value", value)) throw RuntimeError(*err);
+      }
+    }
+    if (!popped && !child_running_) return getInput<NodeStatus>("if_empty").value();
+    if (status() == NodeStatus::kIdle) setStatus(NodeStatus::kRunning);
+    const NodeStatus s = child_->executeTick();
+    child_running_ = s == NodeStatus::kRunning;
+    if (isCompleted(s)) resetChild();
+    return s == NodeStatus::kFailure ? NodeStatus::kFailure : NodeStatus::kRunning;
+  }
+
+ private:
+  // The queue's entry (made, empty, when missing: then it holds nothing a queue can be read from).
+  void readEntry() {
+    const auto it = config().input_ports.find("queue");
+    if (it == config().input_ports.end()) return;
+    const auto key = blackboardKey(it->second, "queue");
+    if (!key) return;
+    Blackboard::Entry* e = config().blackboard->getEntry(*key);
+    if (!e) e = config().blackboard->createEntry(*key, typeInfo<AnyTypeAllowed>());
+    const Any& v = e->value;
+    if (v.kind() == Any::Kind::kOther && v.other().type() == typeid(SharedQueue<T>)) {
+      current_ = std::any_cast<SharedQueue<T>>(v.other());
+      return;
+    }
+    if (current_) return;  // converted when the node started
+    if (v.kind() == Any::Kind::kOther && v.other().type() == typeid(std::vector<T>)) {
+      const auto& vec = std::any_cast<const std::vector<T>&>(v.other());
+      current_ = std::make_shared<std::deque<T>>(vec.begin(), vec.end());
+    } else if (v.isString()) {
+      current_ = parseQueue<T>(v.string());
+    } else {
+      throw RuntimeError("LoopNode: port 'queue' must contain either SharedQueue<T>, std::vector<T>, or a string");
+    }
+  }
+  SharedQueue<T> static_queue_, current_;
+  bool child_running_ = false;
+};
+
+// ---- blackboard entries updated --------------------------------------------------------------
+
+// SkipUnlessUpdated (SKIPPED) and WaitValueUpdate (RUNNING): tick the child only when the entry
+// was written since the last look; a running child is ticked on to its end without looking.
+template <NodeStatus kIfNotUpdated>
+class EntryUpdated final : public DecoratorNode {
+ public:
+  EntryUpdated(const std::string& name, const NodeConfig& config) : DecoratorNode(name, config), watch_(entryKey(config, name)) {}
+  static PortsList providedPorts() { return {inputPort<AnyTypeAllowed>("entry", "Entry to check")}; }
+  void halt() override {
+    running_ = false;
+    DecoratorNode::halt();
+  }
+
+ protected:
+  NodeStatus tick() override {
+    if (!running_ && !watch_.updated(*config().blackboard)) return kIfNotUpdated;
+    const NodeStatus s = child_->executeTick();
+    running_ = s == NodeStatus::kRunning;
+    return s;
+  }
+
+ private:
+  EntryWatch watch_;
+  bool running_ = false;
+};
+
 }  // namespace
 
 void registerDecoratorNodes(Factory& f) {
+  addBuiltin<LoopNode<int>>(f, "LoopInt", "pops each item of queue (ints) into value and ticks the child");
+  addBuiltin<LoopNode<bool>>(f, "LoopBool", "pops each item of queue (bools) into value and ticks the child");
+  addBuiltin<LoopNode<double>>(f, "LoopDouble", "pops each item of queue (doubles) into value and ticks the child");
+  addBuiltin<LoopNode<std::string>>(f, "LoopString", "pops each item of queue (strings) into value and ticks the child");
+  addBuiltin<EntryUpdated<NodeStatus::kSkipped>>(f, "SkipUnlessUpdated", "ticks the child when entry was written since the last look, else SKIPPED");
+  addBuiltin<EntryUpdated<NodeStatus::kRunning>>(f, "WaitValueUpdate", "ticks the child when entry was written since the last look, else RUNNING");
   addBuiltin<RetryUntilSuccessful>(f, "RetryUntilSuccessful", "ticks a failing child again, up to num_attempts times");
   addBuiltin<Repeat>(f, "Repeat", "ticks a succeeding child again, num_cycles times");
   addBuiltin<Inverter>(f, "Inverter", "SUCCESS <-> FAILURE");

@@ -1,6 +1,7 @@
 // How the built-in nodes are registered, shared by their source files (builtin_controls.cc,
 // builtin_decorators.cc, builtin_actions.cc). Internal to src/bt/.
 #pragma once
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <utility>
@@ -22,6 +23,33 @@ void addBuiltin(Factory& f, const std::string& id, const std::string& descriptio
     f.registerNode(std::move(m));
   }
 }
+
+// The key an `entry` port names: "{key}", or the text itself (as BT.CPP reads it). A missing or
+// empty port is an error when the tree is built.
+inline std::string entryKey(const NodeConfig& config, const std::string& name) {
+  const auto it = config.input_ports.find("entry");
+  if (it == config.input_ports.end() || it->second.empty()) throw RuntimeError("Missing port 'entry' in " + name);
+  const auto key = blackboardKey(it->second, "entry");
+  return key ? *key : it->second;
+}
+
+// The entry's write count as last seen: true when it moved since (a first look at a written entry
+// counts as moved, BT.CPP's ids starting at 0).
+class EntryWatch {
+ public:
+  explicit EntryWatch(std::string key) : key_(std::move(key)) {}
+  bool updated(Blackboard& bb) {
+    const Blackboard::Entry* e = bb.getEntry(key_);
+    if (!e) return false;
+    const uint64_t previous = seen_;
+    seen_ = e->sequence;
+    return previous != seen_;
+  }
+
+ private:
+  std::string key_;
+  uint64_t seen_ = 0;
+};
 
 void registerControlNodes(Factory& f);
 void registerDecoratorNodes(Factory& f);

@@ -1,4 +1,4 @@
-// Differential test against BehaviorTree.CPP itself: tests/bt/btcpp_reference/ holds 44 trees and
+// Differential test against BehaviorTree.CPP itself: tests/bt/btcpp_reference/ holds 54 trees and
 // the transitions BT.CPP 4.10.0 produced for each (built outside this repository from a fetched
 // snapshot and run by a small tracer linking it; see that folder's README). Our engine runs the
 // same trees with the same three test nodes and must print the same trace: every status
