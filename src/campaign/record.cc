@@ -30,6 +30,7 @@ void TrialRecord::describe(RecordArchive& a) {
   o.failure_kind = failureKindFromName(kind);
   a.field("tree", o.tree, "", "the behavior tree's ID");
   a.field("tree_status", o.tree_status, "", "SUCCESS, FAILURE, TIMEOUT (simulated-time budget), ERROR (a script or port), CRASH or HANG (its worker process died or hung, twice)");
+  a.field("ik_solver", o.ik_solver, "", "the IK solver of the grasp and place poses (kinematics.solver with auto resolved; null when the trial's worker died)");
   a.field("ticks", o.ticks, "", "root ticks, re-ticks after a wake-up included");
   a.field("sim_unstable", o.sim_unstable, "", "MuJoCo flagged a bad state");
   a.field("dropped", o.dropped, "", "a held object left the hand");
@@ -187,6 +188,7 @@ void CampaignSummary::describe(RecordArchive& a) {
   a.field("seed", seed, "", "");
   a.field("hardware", hardware, "", "");
   a.field("tree", tree, "", "the behavior tree file");
+  a.field("ik_solver", ik_solver, "", "the IK solver of the grasp and place poses: kinematics.solver with auto resolved");
   a.field("trials", trials, "", "");
   a.field("successes", successes, "", "");
   a.object("first_pass_yield", [&](RecordArchive& y) {
@@ -429,15 +431,22 @@ std::string toJsonLine(TrialRecord& r) {
 
 TrialRecord fromJsonLine(const std::string& line, const std::string& where) {
   TrialRecord r;
+  json j;
   try {
-    const json j = json::parse(line);
+    j = json::parse(line);
+  } catch (const std::exception& e) {
+    throw InputError(where, std::string("not a trial record: ") + e.what());
+  }
+  // The version first: a folder written by another build is told apart from a damaged one.
+  if (j.is_object() && j.contains("schema") && j["schema"].is_number_integer() && j["schema"].get<int>() != kTrialSchema)
+    throw InputError(where, "a trial record of schema " + std::to_string(j["schema"].get<int>()) + ", written by another build; this build reads schema " +
+                                std::to_string(kTrialSchema) + " (run into a new --out, or remove this folder)");
+  try {
     Reader reader(j);
     r.describe(reader);
   } catch (const std::exception& e) {
     throw InputError(where, std::string("not a trial record: ") + e.what());
   }
-  if (r.schema != kTrialSchema)
-    throw InputError(where, "trial record schema " + std::to_string(r.schema) + ", this build reads " + std::to_string(kTrialSchema));
   return r;
 }
 

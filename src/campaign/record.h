@@ -36,7 +36,7 @@ class RecordArchive {
   virtual bool reading() const { return false; }
 };
 
-constexpr int kTrialSchema = 8;  // 3: attempts, failure kinds crash and hang; 4: picks' offset; 5: forces, contacts; 6: picks' first_pass; 7: detections; 8: grasp selections, picks' grasp type and deviation
+constexpr int kTrialSchema = 9;  // 3: attempts, failure kinds crash and hang; 4: picks' offset; 5: forces, contacts; 6: picks' first_pass; 7: detections; 8: grasp selections, picks' grasp type and deviation; 9: ik_solver
 
 /// One trial as trials.jsonl holds it.
 struct TrialRecord {
@@ -72,6 +72,7 @@ struct FaultStats {
 struct CampaignSummary {
   int schema = kTrialSchema;
   std::string experiment, experiment_file, command, hardware, tree;
+  std::string ik_solver;  ///< kinematics.solver with auto resolved (the robot's closed form, or dls)
   std::string goal = "pick_one";  ///< task.goal: pick_one or clear_bin (what the report leads with)
   unsigned long seed = 0;
   long trials = 0, successes = 0, first_pass = 0, recoveries_needed = 0, recovered = 0;

@@ -13,6 +13,8 @@ void SummaryBuilder::add(const TrialRecord& r) {
   const TrialOutcome& o = r.o;
   CampaignSummary& s = s_;
   ++s.trials;
+  // One solver for the whole campaign; a died worker's trial has none (the least name: any order).
+  if (!o.ik_solver.empty() && (s.ik_solver.empty() || o.ik_solver < s.ik_solver)) s.ik_solver = o.ik_solver;
   s.collision_events += o.collision_count;
   const long placed = std::count_if(o.picks.begin(), o.picks.end(), [](const PickRecord& p) { return p.placed; });
   s.objects_placed += placed;

@@ -105,6 +105,7 @@ TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial
   env_.ctx = nullptr;
   TrialOutcome out = std::move(ctx.out);
   out.tree = tree->mainTreeId();
+  out.ik_solver = ctx.ik->name();
   out.tree_status = r.timeout ? "TIMEOUT" : !r.error.empty() ? "ERROR" : bt::toString(r.status);
   out.ticks = r.ticks;
   cost_.tick_seconds += r.tick_wall_seconds;

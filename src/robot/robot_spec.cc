@@ -142,6 +142,11 @@ std::string RobotSpec::mjcfPath() const { return (std::filesystem::path(director
 std::string RobotSpec::urdfPath() const { return (std::filesystem::path(directory()) / (name + ".urdf")).string(); }
 
 RobotSpec loadRobotSpec(const std::string& path, const std::string& gripper_yaml) {
+  if (std::filesystem::path(path).extension() == ".xacro")
+    throw InputError(path, "a .xacro file is a template of a URDF: run xacro first (\"xacro " +
+                               std::filesystem::path(path).filename().string() +
+                               " > robot.urdf\") and name the .urdf. xacro is not in Debian 12: it comes with ROS "
+                               "(ros-<distro>-xacro) or from PyPI (pip install xacro)");
   if (std::filesystem::path(path).extension() == ".urdf") return loadUrdfRobotSpec(path, gripper_yaml);
   if (std::filesystem::path(path).extension() == ".xml")
     throw InputError(path, "an MJCF robot is read through the simulator (sim/mjcf_robot.h: loadAnyRobot)");

@@ -102,6 +102,10 @@ RobotSpec loadUrdfRobotSpec(const std::string& urdf_path, const std::string& gri
   if (!in) throw InputError(urdf_path, "cannot open file (expected a URDF robot description)");
   std::stringstream text;
   text << in.rdbuf();
+  if (text.str().find("<xacro:") != std::string::npos)
+    throw InputError(urdf_path, "this URDF still holds xacro macros (<xacro:...>): run xacro on it first and name its "
+                                "output. xacro is not in Debian 12: it comes with ROS (ros-<distro>-xacro) or from "
+                                "PyPI (pip install xacro)");
   const auto model = parseUrdfText(text.str(), urdf_path);
 
   // The companion YAML, when there is one.

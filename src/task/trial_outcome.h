@@ -136,6 +136,7 @@ struct TrialOutcome {
   // The behavior tree.
   std::string tree;         ///< the tree's ID
   std::string tree_status;  ///< SUCCESS, FAILURE or TIMEOUT
+  std::string ik_solver;    ///< the IK solver of grasp and place poses (kinematics.solver, auto resolved)
   long ticks = 0;
   int reported_total = -1;  ///< ReportCompletion's total, -1 if never reported
   std::vector<StageRecord> stages;

@@ -302,6 +302,25 @@ TEST(Integrity, AFolderThatMayNotBeWrittenIsExitThreeNamingIt) {
   EXPECT_THAT(text, HasSubstr(tree + ": cannot be read: Permission denied"));
 }
 
+// A closed-form IK declared for an arm it does not fit is bad input: exit 2 naming the robot's
+// file before any trial (it was a worker crash in every trial, and exit 0).
+TEST(Integrity, AClosedFormIkThatDoesNotFitTheArmIsExitTwoBeforeAnyTrial) {
+  TempDir d;
+  std::string arm = slurp("robots/ur5e/ur5e.yaml");
+  for (const auto& [from, to] : {std::pair<std::string, std::string>{"analytic_ik: ur ", "analytic_ik: panda "},
+                                 {"gripper: ../grippers/", "gripper: " + (fs::current_path() / "robots/grippers/").string()}}) {
+    const auto pos = arm.find(from);
+    ASSERT_NE(pos, std::string::npos) << from;
+    arm.replace(pos, from.size(), to);
+  }
+  const std::string robot = d.file("arm.yaml", arm);
+  const RunResult r = runMinimanip("run experiments/ur5e_quickstart.yaml --trials 2 --set progress=none --set robot=" + robot +
+                                   " --out " + (d.path() / "out").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_THAT(r.out, HasSubstr(robot + ": the analytic IK needs a Panda-shaped"));
+  EXPECT_FALSE(fs::exists(d.path() / "out" / "trials.jsonl"));
+}
+
 // ---- records -----------------------------------------------------------------------------------
 
 TEST(Integrity, AFailedSpawnIsCountedAsSuchNeverAsAnEmptiedBin) {

@@ -51,6 +51,17 @@ TEST(Records, ALineThatIsNotATrialRecordIsBadInput) {
   EXPECT_THROW(fromJsonLine("{\"schema\": 2, \"trial\"", "x.jsonl:2"), InputError);
 }
 
+TEST(Records, ARecordOfAnotherBuildSaysSoBeforeAnyMissingField) {
+  try {
+    fromJsonLine("{\"schema\": 2, \"trial\": 0}", "old/trials.jsonl:1");
+    FAIL() << "an old record was read";
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("old/trials.jsonl:1"));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("schema 2, written by another build"));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("new --out"));
+  }
+}
+
 TEST(Records, EveryFieldIsDocumented) {
   const std::string md = recordsMarkdown();
   for (const char* k : {"`failure_kind`", "`picks`", "`bt_log`", "`stages`", "`overall_yield`", "`time_per_pick`"})

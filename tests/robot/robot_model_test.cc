@@ -192,6 +192,14 @@ TEST_F(BadRobotFiles, UrdfMeshesDaeAndUnresolvedPackagesAreRejected) {
   EXPECT_THAT(loadError("panda.urdf"), ::testing::HasSubstr("cannot read mesh"));
 }
 
+TEST_F(BadRobotFiles, XacroIsRefusedWithWhereXacroComesFrom) {
+  std::filesystem::copy_file(dir_ / "panda.urdf", dir_ / "panda.urdf.xacro");
+  EXPECT_THAT(loadError("panda.urdf.xacro"), ::testing::HasSubstr("panda.urdf.xacro: a .xacro file is a template of a URDF: run xacro first"));
+  EXPECT_THAT(loadError("panda.urdf.xacro"), ::testing::HasSubstr("not in Debian 12"));
+  replaceIn("panda.urdf", "<link name=\"panda_link3\">", "<xacro:property name=\"r\" value=\"1\"/>\n<link name=\"panda_link3\">");
+  EXPECT_THAT(loadError("panda.urdf"), ::testing::HasSubstr("panda.urdf: this URDF still holds xacro macros"));
+}
+
 TEST_F(BadRobotFiles, MjcfWithoutVelocitiesOrWithTwoHingesInABodyIsRejected) {
   std::filesystem::copy_file("robots/panda/panda.xml", dir_ / "panda.xml");
   std::filesystem::copy_file("robots/panda/panda.xml.yaml", dir_ / "panda.xml.yaml");
