@@ -197,7 +197,24 @@ void checkIkFits(const Experiment& e, const RobotModel& robot) {
 
 }  // namespace
 
-void checkCampaignInput(const Experiment& e) {
+std::string robotAsLoaded(const RobotModel& robot) {
+  const RobotSpec& s = robot.spec();
+  std::ostringstream o;
+  o.precision(4);
+  o << "robot " << s.name << " (" << s.file << "): " << s.joints.size() << " joints, base " << s.base_link;
+  if (!s.flange_link.empty()) o << ", flange " << s.flange_link << " (" << s.flange_choice << ")";
+  o << ", gripper " << s.gripper.name << "\n";
+  o << "home [";
+  for (size_t i = 0; i < s.home.size(); ++i) o << (i ? ", " : "") << s.home[i];
+  o << "] (" << (s.home_source == "yaml" ? "the robot's files" : s.home_source == "keyframe" ? "the MJCF keyframe 'home'"
+                 : s.home_source == "computed" ? "computed: none given; the clear gripper-down pose above the bin farthest from the limits"
+                                               : "each joint at 0")
+    << ")\n";
+  for (const std::string& n : s.notes) o << "note: " << n << "\n";
+  return o.str();
+}
+
+std::string checkCampaignInput(const Experiment& e) {
   // The text files the experiment names: UTF-8, checked where they enter (names in them reach
   // the records). The YAML experiment itself was checked as it was read.
   {
@@ -216,6 +233,7 @@ void checkCampaignInput(const Experiment& e) {
   }
   const RobotModel robot = loadExperimentRobot(e);
   checkIkFits(e, robot);
+  const std::string as_loaded = robotAsLoaded(robot);
   const auto world = loadWorld(e, robot);
   makeCell(e, robot, *world);
   loadTree(e);
@@ -229,13 +247,15 @@ void checkCampaignInput(const Experiment& e) {
       renderer->camera(*world, e.perception.camera, 64, 48, e.file, "perception.camera");
     if (renderer && e.render.enabled()) renderer->camera(*world, e.render.camera, 64, 48, e.file);
   }
+  return as_loaded;
 }
 
 std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
   // Of two runs started on one folder, the first started keeps it, however long its input takes.
   const FolderLock claim = FolderLock::claimBeforeStart(co.out_dir, "minimanip run");
   // Everything that can be bad input is loaded and checked before anything is written.
-  checkCampaignInput(e);
+  const std::string robot_text = checkCampaignInput(e);
+  if (e.progress != "none") std::cerr << robot_text;
   const json fingerprint = fingerprintOf(e);
   const std::string expected_digest = digest(fingerprint.dump());
   const fs::path out(co.out_dir);
@@ -265,7 +285,11 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
   const bool writes = run_now > 0 || st.dropped_lines > 0 || !fs::exists(out / "campaign.json") || !fs::exists(out / "summary.json");
   if (writes) {
     writeFileIfChanged(out / "campaign.json", st.meta);
-    writeFileIfChanged(out / "config.resolved.yaml", "# " + co.command_line + "\n" + e.params.toYaml());
+    // The robot as loaded (flange, home, what was changed of its files), as comments: not keys.
+    std::string robot_comment;
+    std::istringstream lines(robot_text);
+    for (std::string l; std::getline(lines, l);) robot_comment += "# " + l + "\n";
+    writeFileIfChanged(out / "config.resolved.yaml", "# " + co.command_line + "\n" + robot_comment + e.params.toYaml());
   }
 
   const std::string binary = co.worker_binary.empty() ? fs::read_symlink("/proc/self/exe").string() : co.worker_binary;

@@ -20,8 +20,12 @@ struct CampaignOptions {
 };
 
 /// Loads the robot, the scene and the tree as a campaign would and checks the experiment against
-/// them (an object count the scene cannot hold, ...): bad input throws InputError.
-void checkCampaignInput(const Experiment& experiment);
+/// them (an object count the scene cannot hold, ...): bad input throws InputError. Returns the
+/// robot as loaded, in lines for the user: its flange and home and how each was chosen, and what
+/// was changed of its files.
+std::string checkCampaignInput(const Experiment& experiment);
+/// Those lines, for a robot loaded.
+std::string robotAsLoaded(const RobotModel& robot);
 
 /// Loads the robot and scene (input errors throw InputError before anything is written), then
 /// runs the trials in `jobs` worker processes (`minimanip worker`) and writes the summary. A

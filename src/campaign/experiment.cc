@@ -1,4 +1,5 @@
 #include "campaign/experiment.h"
+#include "campaign/robot_home.h"
 
 #include <algorithm>
 #include <cmath>
@@ -78,7 +79,7 @@ RobotModel loadExperimentRobot(const Experiment& e) {
     o << "grasp.force " << e.task.grasp_force << " N is past the gripper's limit (" << g.max_force << " N, " << g.file << ")";
     throw InputError(e.file, o.str());
   }
-  return robot;
+  return resolveHome(e, robot);
 }
 
 std::vector<ParamDecl> experimentParams() {

@@ -66,8 +66,8 @@ struct Experiment {
 
 /// The declarations (also printed by `minimanip config-doc` for docs/reference/config.md).
 std::vector<ParamDecl> experimentParams();
-/// The experiment's robot with its gripper; throws InputError when the grasp force is past the
-/// gripper's limit.
+/// The experiment's robot with its gripper and its home in the cell (campaign/robot_home.h);
+/// throws InputError when the grasp force is past the gripper's limit or the home will not do.
 RobotModel loadExperimentRobot(const Experiment& e);
 
 /// Loads `path`, applies `sets` ("key=value") and `sweeps` ("key=a,b,c", added to the file's

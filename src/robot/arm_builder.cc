@@ -1,8 +1,10 @@
 #include "robot/arm_builder.h"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 
 #include "core/error.h"
@@ -35,7 +37,7 @@ Companion loadCompanion(const std::string& description, const char* format, cons
   Companion c{description + ".yaml", YAML::Node(YAML::NodeType::Map), spec_io::Reader{description + ".yaml"}};
   if (std::filesystem::exists(c.path)) c.y = spec_io::loadYaml(c.path, (std::string("a ") + format + "'s companion YAML").c_str());
   std::vector<std::string> keys = {"name", "base_link", "flange_link", "flange_d", "hand_yaw", "acceleration", "jerk",
-                                   "home", "damping", "armature", "analytic_ik", "gripper"};
+                                   "home", "damping", "armature", "analytic_ik", "gripper", "default_link_mass"};
   keys.insert(keys.end(), extra_keys.begin(), extra_keys.end());
   for (auto it = c.y.begin(); it != c.y.end(); ++it) {
     const std::string k = it->first.Scalar();
@@ -77,6 +79,12 @@ void recognizeDh(JointSpec& js) {
 
 namespace {
 
+std::string fmt(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.4g", v);
+  return b;
+}
+
 // A cylinder with spheres of its radius on both end points is a capsule (URDF has none; writers,
 // ours included, write a capsule so): one shape again, the same solid.
 void mergeCapsules(std::vector<ShapeSpec>& shapes) {
@@ -103,21 +111,59 @@ void mergeCapsules(std::vector<ShapeSpec>& shapes) {
 
 }  // namespace
 
-void addLink(RobotSpec& s, LinkSpec ls, const Inertia& in, const std::string& description) {
+void addLink(RobotSpec& s, LinkSpec ls, const Inertia& in, const std::string& description, const Companion& c) {
   mergeCapsules(ls.shapes);
-  if (in.mass <= 0)
-    throw InputError(description, "link '" + ls.name + "' has no mass (expected an inertia on it or on a link fixed to it)");
+  const bool base = s.links.empty();  // welded to the world: its mass and shapes may be absent
+  if (ls.shapes.empty() && !base)
+    throw InputError(description, "link '" + ls.name + "' has no collision shape (expected one on it or on a link fixed to it)");
+  if (in.mass <= 0) {
+    if (base) {
+      ls.mass = 0;  // static: the simulator needs no mass for it
+      ls.has_inertia = false;
+    } else if (c.y["default_link_mass"]) {
+      ls.mass = c.r.positive(c.y, "default_link_mass");  // spread over its collision shapes by volume
+      ls.has_inertia = false;
+      s.notes.push_back("link '" + ls.name + "' has no inertial: default_link_mass " + fmt(ls.mass) +
+                        " kg, its inertia from its collision shapes");
+    } else {
+      throw InputError(description, "link '" + ls.name + "' has no mass (expected an inertia on it or on a link fixed to it, or "
+                                    "default_link_mass: <kg> in " + c.path + " to give such links a mass, their inertia from "
+                                    "their collision shapes)");
+    }
+    s.links.push_back(ls);
+    return;
+  }
   ls.mass = in.mass;
   ls.has_inertia = true;
   ls.com = arr(in.com);
-  ls.inertia = {in.I(0, 0), in.I(1, 1), in.I(2, 2), in.I(0, 1), in.I(0, 2), in.I(1, 2)};
-  if (ls.shapes.empty())
-    throw InputError(description, "link '" + ls.name + "' has no collision shape (expected one on it or on a link fixed to it)");
+  Mat3 I = in.I;
+  // Principal moments A <= B <= C must satisfy A + B >= C (a rigid body's); published files
+  // sometimes do not. As MuJoCo's balanceinertia: all three become their mean.
+  const Eigen::SelfAdjointEigenSolver<Mat3> eig(0.5 * (I + I.transpose()));
+  const Vec3 m = eig.eigenvalues();  // ascending
+  if (m(0) + m(1) < m(2)) {
+    const double mean = m.sum() / 3;
+    I = mean * Mat3::Identity();
+    if (m(2) - m(0) - m(1) > 1e-6 * m(2))
+      s.notes.push_back("link '" + ls.name + "': its principal moments of inertia (" + fmt(m(0)) + ", " + fmt(m(1)) + ", " + fmt(m(2)) +
+                        " kg m^2) violate A + B >= C: balanced to " + fmt(mean) + " each (MuJoCo's balanceinertia)");
+  }
+  ls.inertia = {I(0, 0), I(1, 1), I(2, 2), I(0, 1), I(0, 2), I(1, 2)};
   s.links.push_back(ls);
 }
 
+int toolFrameRank(const std::string& name) {
+  std::string n = name;
+  for (char& ch : n) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  if (n == "tool0" || (n.size() > 6 && n.compare(n.size() - 6, 6, "_tool0") == 0)) return 0;
+  if (n == "flange" || (n.size() > 7 && n.compare(n.size() - 7, 7, "_flange") == 0)) return 1;
+  if (n.find("_ee") != std::string::npos || n.rfind("ee_", 0) == 0) return 2;
+  if (n.rfind("end_effector", 0) == 0) return 3;
+  return -1;
+}
+
 void finishArm(RobotSpec& s, const Companion& c, const Pose& T_last_flange, const std::string& gripper_yaml,
-               const std::string& description) {
+               const std::string& description, const std::vector<double>& file_home) {
   const YAML::Node& y = c.y;
   const auto& r = c.r;
   if (s.joints.empty()) throw InputError(description, "no moving joint on the arm's chain");
@@ -132,12 +178,20 @@ void finishArm(RobotSpec& s, const Companion& c, const Pose& T_last_flange, cons
   const auto acc = c.perJoint("acceleration", n, 10.0, true), jerk = c.perJoint("jerk", n, 5000.0, true);
   std::vector<double> home(n);
   for (size_t i = 0; i < n; ++i) home[i] = std::clamp(0.0, s.joints[i].lower, s.joints[i].upper);
-  if (y["home"]) home = c.perJoint("home", n, 0.0, false);
+  s.home_source = "";
+  if (y["home"]) {
+    home = c.perJoint("home", n, 0.0, false);
+    s.home_source = "yaml";
+  } else if (file_home.size() == n) {
+    home = file_home;
+    s.home_source = "keyframe";
+  }
   for (size_t i = 0; i < n; ++i) {
     s.joints[i].acceleration = acc[i];
     s.joints[i].jerk = jerk[i];
     if (!(home[i] >= s.joints[i].lower && home[i] <= s.joints[i].upper))
-      throw InputError(r.at(y["home"]), "'home' value " + std::to_string(home[i]) + " is outside the limits of " + s.joints[i].name);
+      throw InputError(y["home"] ? r.at(y["home"]) : description, std::string(y["home"] ? "'home'" : "the keyframe 'home'") + " value " +
+                                                                       std::to_string(home[i]) + " is outside the limits of " + s.joints[i].name);
   }
   s.home = home;
   s.damping = c.number("damping", 0.5);

@@ -41,11 +41,18 @@ std::array<double, 3> rpyOf(const Mat3& R);
 void recognizeDh(JointSpec& j);
 /// A link's shapes and inertia into `s.links`: capsules recognized (a cylinder with spheres of its
 /// radius on both ends), a mass and a shape required. `description` names the file in errors.
-void addLink(RobotSpec& s, LinkSpec link, const Inertia& inertia, const std::string& description);
+/// The base (the first link) may have neither: it is welded to the world. A link without mass
+/// takes the companion's default_link_mass, if any; principal moments violating A + B >= C are
+/// balanced (MuJoCo's balanceinertia), said in `s.notes`.
+void addLink(RobotSpec& s, LinkSpec link, const Inertia& inertia, const std::string& description, const Companion& c);
 /// Finishes the arm: flange (`T_last_flange`, then the companion's flange_d and hand_yaw), the
-/// per-joint limits the description lacks, home, damping, armature, analytic_ik, and the gripper
-/// (`gripper_yaml`, else the companion's).
+/// per-joint limits the description lacks, home (the companion's, else `file_home` when the
+/// description has one — an MJCF keyframe — else unsaid), damping, armature, analytic_ik, and the
+/// gripper (`gripper_yaml`, else the companion's).
 void finishArm(RobotSpec& s, const Companion& c, const Pose& T_last_flange, const std::string& gripper_yaml,
-               const std::string& description);
+               const std::string& description, const std::vector<double>& file_home = {});
+/// The tool-frame rule: the rank of a frame's name as a flange (0 tool0, 1 flange, 2 *_ee*,
+/// 3 end_effector*), or -1 for a name that is none of them.
+int toolFrameRank(const std::string& name);
 
 }  // namespace mm::arm_builder

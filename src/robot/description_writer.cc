@@ -154,6 +154,7 @@ std::string mjcfMeshAssets(const std::vector<const LinkSpec*>& links) {
 }
 
 std::string mjcfInertial(const LinkSpec& link, const std::string& indent) {
+  if (link.mass <= 0) return "";  // a massless base, welded to the world
   const MassProps mp = massProps(link);
   const Matrix3d& I = mp.inertia;
   return indent + "<inertial pos=\"" + vec(mp.com) + "\" mass=\"" + num(link.mass) + "\" fullinertia=\"" +
@@ -261,6 +262,7 @@ std::string writeMjcf(const RobotSpec& spec) {
 namespace {
 
 std::string urdfInertial(const LinkSpec& link) {
+  if (link.mass <= 0) return "";  // a massless base, welded to the world
   const MassProps mp = massProps(link);
   const Matrix3d& I = mp.inertia;
   return "    <inertial>\n      <origin xyz=\"" + vec(mp.com) + "\" rpy=\"0 0 0\"/>\n      <mass value=\"" +

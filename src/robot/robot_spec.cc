@@ -195,6 +195,7 @@ RobotSpec loadRobotSpec(const std::string& path, const std::string& gripper_yaml
       throw InputError(r.at(home[i]), "'home' value " + std::to_string(v) + " is outside the limits of " + s.joints[i].name);
     s.home.push_back(v);
   }
+  s.home_source = "yaml";
   s.damping = r.number(root, "damping");
   s.armature = r.number(root, "armature");
   const YAML::Node links = r.require(root, "links", root);

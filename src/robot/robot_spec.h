@@ -80,6 +80,15 @@ struct RobotSpec {
   /// kinematic structure when it is made, so a wrong declaration is an input error.
   std::string analytic_ik;
   std::vector<double> home;  ///< [rad], dim joints.size()
+  /// Where home came from: "yaml" (an arm YAML or a companion's home), "keyframe" (an MJCF's
+  /// keyframe 'home'), "computed" (above the bin, by the campaign), or "" (unsaid: each joint at
+  /// 0, clamped into its limits, for the campaign to replace).
+  std::string home_source;
+  /// The robot file's link the gripper mounts on, and how it was chosen.
+  std::string flange_link, flange_choice;
+  /// What loading changed of the robot file, said to the user (a shipped hand left out, an
+  /// inertia balanced).
+  std::vector<std::string> notes;
   double damping = 0, armature = 0;
   GripperSpec gripper;
   /// Links in order: base, one per joint, then the gripper's hand, +y finger, -y finger.

@@ -117,36 +117,84 @@ RobotSpec loadUrdfRobotSpec(const std::string& urdf_path, const std::string& gri
   const spec_io::Reader& r = comp.r;
   const std::string& side = comp.path;
   s.name = y["name"] ? r.text(y, "name") : model->getName();
-  s.base_link = y["base_link"] ? r.text(y, "base_link") : model->getRoot()->name;
+  // The base: named, or the root link — unless the root is 'world' with one fixed child, the
+  // convention of files meant to be welded somewhere: then the world is ours, the child the base.
+  s.base_link = model->getRoot()->name;
+  if (y["base_link"]) {
+    s.base_link = r.text(y, "base_link");
+  } else if (s.base_link == "world" && model->getRoot()->child_joints.size() == 1 &&
+             model->getRoot()->child_joints[0]->type == urdf::Joint::FIXED) {
+    s.base_link = model->getRoot()->child_joints[0]->child_link_name;
+    s.notes.push_back("root link 'world' is the world: the arm's base is '" + s.base_link + "'");
+  }
   const auto base = model->getLink(s.base_link);
   if (!base) throw InputError(y["base_link"] ? r.at(y["base_link"]) : urdf_path, "base link '" + s.base_link + "' is not in " + urdf_path);
 
-  // The flange: named, or the end of the only chain of moving joints below the base.
+  // The arm's joints turn (revolute or continuous); what slides below them (a hand's fingers) is
+  // a hand the URDF carries.
+  auto turns = [](const urdf::JointConstSharedPtr& j) {
+    return j->type == urdf::Joint::REVOLUTE || j->type == urdf::Joint::CONTINUOUS;
+  };
+  std::function<bool(const urdf::LinkConstSharedPtr&)> turnsBelow = [&](const urdf::LinkConstSharedPtr& l) {
+    for (const auto& j : l->child_joints)
+      if (turns(j) || turnsBelow(model->getLink(j->child_link_name))) return true;
+    return false;
+  };
+  // A hand's root: a link with a moving child joint that is not one of the arm's.
+  auto holdsHand = [&](const urdf::LinkConstSharedPtr& l) {
+    for (const auto& j : l->child_joints)
+      if (j->type != urdf::Joint::FIXED && !turns(j)) return true;
+    return false;
+  };
+
+  // The flange: named; else, below the chain's last turning link, a frame fixed to it named like
+  // a tool frame (tool0, flange, *_ee*, end_effector*); else the link a shipped hand hangs from;
+  // else the last turning link.
   std::string flange_name;
   if (y["flange_link"]) {
     flange_name = r.text(y, "flange_link");
+    s.flange_choice = "flange_link in " + side;
   } else {
-    // Through fixed joints too: follow the one child whose subtree moves.
-    std::function<bool(const urdf::LinkConstSharedPtr&)> movesBelow = [&](const urdf::LinkConstSharedPtr& l) {
-      for (const auto& j : l->child_joints)
-        if (j->type != urdf::Joint::FIXED || movesBelow(model->getLink(j->child_link_name))) return true;
-      return false;
-    };
     auto l = base;
     for (;;) {
       urdf::LinkConstSharedPtr next;
       int moving = 0;
       for (const auto& j : l->child_joints) {
         const auto child = model->getLink(j->child_link_name);
-        if (j->type != urdf::Joint::FIXED || movesBelow(child)) ++moving, next = child;
+        if (turns(j) || turnsBelow(child)) ++moving, next = child;
       }
       if (moving == 0) break;
       if (moving > 1)
-        throw InputError(urdf_path, "link '" + l->name + "' has several moving children: name the arm's last link as flange_link in " + side);
+        throw InputError(urdf_path, "link '" + l->name + "' has several turning children: name the arm's last link as flange_link in " + side);
       l = next;
     }
     flange_name = l->name;
+    s.flange_choice = "the last link the arm's joints turn";
+    // Frames fixed below it, breadth first, not into a shipped hand.
+    int best = 99;
+    std::string hand_root;
+    std::vector<urdf::LinkConstSharedPtr> level = {l};
+    while (!level.empty()) {
+      std::vector<urdf::LinkConstSharedPtr> next_level;
+      for (const auto& k : level) {
+        if (holdsHand(k)) {
+          if (hand_root.empty()) hand_root = k->name;
+          continue;
+        }
+        for (const auto& j : k->child_joints) {
+          if (j->type != urdf::Joint::FIXED) continue;
+          const auto c = model->getLink(j->child_link_name);
+          const int rank = arm_builder::toolFrameRank(c->name);
+          if (rank >= 0 && rank < best) best = rank, flange_name = c->name;
+          next_level.push_back(c);
+        }
+      }
+      level = next_level;
+    }
+    if (best < 99) s.flange_choice = "a frame fixed after the last joint, named like a tool frame";
+    else if (!hand_root.empty()) flange_name = hand_root, s.flange_choice = "the link the robot file's own hand hangs from";
   }
+  s.flange_link = flange_name;
   const auto flange = model->getLink(flange_name);
   if (!flange) throw InputError(y["flange_link"] ? r.at(y["flange_link"]) : urdf_path, "flange link '" + flange_name + "' is not in " + urdf_path);
   std::vector<urdf::JointConstSharedPtr> chain;
@@ -155,6 +203,22 @@ RobotSpec loadUrdfRobotSpec(const std::string& urdf_path, const std::string& gri
     chain.push_back(l->parent_joint);
   }
   std::reverse(chain.begin(), chain.end());
+  {  // What hangs below the flange is the place of our gripper: said when there is something.
+    std::vector<std::string> below;
+    std::function<void(const urdf::LinkConstSharedPtr&)> collect = [&](const urdf::LinkConstSharedPtr& l) {
+      for (const auto& j : l->child_joints) {
+        const auto c = model->getLink(j->child_link_name);
+        if (!c->collision_array.empty() || j->type != urdf::Joint::FIXED) below.push_back(c->name);
+        collect(c);
+      }
+    };
+    collect(flange);
+    if (!below.empty()) {
+      std::string list;
+      for (const auto& b : below) list += (list.empty() ? "" : ", ") + b;
+      s.notes.push_back("the links below the flange '" + flange_name + "' (" + list + ") are left out: the gripper is a part of its own");
+    }
+  }
 
   // Links below the flange belong to whatever the URDF mounts there: left out.
   std::function<bool(const urdf::LinkConstSharedPtr&)> belowFlange = [&](const urdf::LinkConstSharedPtr& l) {
@@ -179,6 +243,12 @@ RobotSpec loadUrdfRobotSpec(const std::string& urdf_path, const std::string& gri
       std::stringstream ss(env);
       for (std::string d; std::getline(ss, d, ':');)
         if (!d.empty()) dirs.push_back(d);
+    }
+    // Then the URDF's folder and its ancestors: a package as published keeps its urdf/ and meshes/
+    // side by side, so package://<pkg>/meshes/... is found above the URDF, in the package's parent.
+    for (fs::path d = fs::absolute(urdf_path).lexically_normal().parent_path();; d = d.parent_path()) {
+      dirs.push_back(d.string());
+      if (d == d.parent_path()) break;
     }
     return dirs;
   }();
@@ -234,7 +304,8 @@ RobotSpec loadUrdfRobotSpec(const std::string& urdf_path, const std::string& gri
                 break;
               }
             if (found.empty())
-              throw InputError(where, "cannot resolve '" + f + "' (looked in package_path of " + side + " and ROS_PACKAGE_PATH)");
+              throw InputError(where, "cannot resolve '" + f + "' (looked in package_path of " + side +
+                                          ", ROS_PACKAGE_PATH and the folders above the URDF)");
             f = found;
           } else if (f.rfind("file://", 0) == 0) {
             f = f.substr(7);
@@ -269,6 +340,10 @@ RobotSpec loadUrdfRobotSpec(const std::string& urdf_path, const std::string& gri
         if (l->name == flange_name) return;  // what hangs below the flange is the gripper's place
         for (const auto& j : l->child_joints) {
           if (onChain(j->child_link_name)) continue;
+          if (j->type != urdf::Joint::FIXED && !turns(j) && !turnsBelow(model->getLink(j->child_link_name))) {
+            s.notes.push_back("link '" + j->child_link_name + "' slides off the arm's chain (a hand's part): left out");
+            continue;
+          }
           if (j->type != urdf::Joint::FIXED)
             throw InputError(urdf_path, "joint '" + j->name + "' moves but is not on the arm's chain " + s.base_link + " -> " +
                                             flange_name + " (name the arm's links with base_link and flange_link in " + side + ")");
@@ -292,12 +367,14 @@ RobotSpec loadUrdfRobotSpec(const std::string& urdf_path, const std::string& gri
     }
     if (j->type != urdf::Joint::REVOLUTE && j->type != urdf::Joint::CONTINUOUS)
       throw InputError(urdf_path, "joint '" + j->name + "' on the arm's chain must be revolute, continuous or fixed");
-    arm_builder::addLink(s, current, current_inertia, urdf_path);
+    arm_builder::addLink(s, current, current_inertia, urdf_path, comp);
     JointSpec js;
     js.name = j->name;
     js.xyz = arm_builder::arr(T_origin.translation());
     js.rpy = arm_builder::rpyOf(T_origin.linear());
-    js.axis = arm_builder::arr(Vec3(j->axis.x, j->axis.y, j->axis.z).normalized());
+    const Vec3 axis(j->axis.x, j->axis.y, j->axis.z);
+    if (!(axis.norm() > 1e-9)) throw InputError(urdf_path, "joint '" + j->name + "': <axis xyz> is zero (expected a direction)");
+    js.axis = arm_builder::arr(axis.normalized());
     const auto& lim = j->limits;
     if (j->type == urdf::Joint::CONTINUOUS) js.lower = -2 * M_PI, js.upper = 2 * M_PI;
     else if (lim) js.lower = lim->lower, js.upper = lim->upper;
@@ -314,7 +391,7 @@ RobotSpec loadUrdfRobotSpec(const std::string& urdf_path, const std::string& gri
     T_acc = Pose::Identity();
     gather(child, Pose::Identity(), current, current_inertia);
   }
-  arm_builder::addLink(s, current, current_inertia, urdf_path);
+  arm_builder::addLink(s, current, current_inertia, urdf_path, comp);
   arm_builder::finishArm(s, comp, T_acc, gripper_yaml, urdf_path);
   return s;
 }

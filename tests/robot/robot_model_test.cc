@@ -200,7 +200,7 @@ TEST_F(BadRobotFiles, XacroIsRefusedWithWhereXacroComesFrom) {
   EXPECT_THAT(loadError("panda.urdf"), ::testing::HasSubstr("panda.urdf: this URDF still holds xacro macros"));
 }
 
-TEST_F(BadRobotFiles, MjcfWithoutVelocitiesOrWithTwoHingesInABodyIsRejected) {
+TEST_F(BadRobotFiles, MjcfWithoutVelocitiesTakesACautiousOneSaidAndTwoHingesInABodyAreRejected) {
   std::filesystem::copy_file("robots/panda/panda.xml", dir_ / "panda.xml");
   std::filesystem::copy_file("robots/panda/panda.xml.yaml", dir_ / "panda.xml.yaml");
   replaceIn("panda.xml.yaml", "gripper: ../grippers/panda_hand.yaml", "gripper: grippers/panda_hand.yaml");
@@ -214,10 +214,94 @@ TEST_F(BadRobotFiles, MjcfWithoutVelocitiesOrWithTwoHingesInABodyIsRejected) {
   };
   EXPECT_EQ(mjcfError(), "");
   replaceIn("panda.xml.yaml", "velocity: [", "# velocity: [");
-  EXPECT_THAT(mjcfError(), ::testing::HasSubstr("MJCF has no joint velocity limits: list them as velocity in"));
+  EXPECT_EQ(mjcfError(), "");
+  {
+    const RobotModel r = loadAnyRobot((dir_ / "panda.xml").string());
+    EXPECT_DOUBLE_EQ(r.vmax()[0], 1.5);
+    EXPECT_THAT(r.spec().notes, ::testing::Contains(::testing::HasSubstr("MJCF has no joint velocity limits: 1.5 rad/s each assumed")));
+  }
   replaceIn("panda.xml.yaml", "# velocity: [", "velocity: [");
   replaceIn("panda.xml", "<joint name=\"panda_joint3\"", "<joint name=\"panda_joint3b\" axis=\"1 0 0\"/>\n<joint name=\"panda_joint3\"");
   EXPECT_THAT(mjcfError(), ::testing::HasSubstr("body 'panda_link3' on the arm's chain must hold one hinge joint"));
+}
+
+// MJCF robot files as published: the settings of a simulation of their own (<option>, newer
+// compiler settings) are left out and said; a keyword MuJoCo 2.2 lacks is named with its fix and the
+// file's own line; the file's keyframe 'home' is the home when the companion gives none.
+TEST_F(BadRobotFiles, MjcfSettingsOfItsOwnSimulationAreLeftOutAndSaid) {
+  std::filesystem::copy_file("robots/panda/panda.xml", dir_ / "panda.xml");
+  std::filesystem::copy_file("robots/panda/panda.xml.yaml", dir_ / "panda.xml.yaml");
+  replaceIn("panda.xml.yaml", "gripper: ../grippers/panda_hand.yaml", "gripper: grippers/panda_hand.yaml");
+  // MuJoCo 2.2 refuses integrator="implicitfast" (2.3.3's) and alignfree (3's).
+  replaceIn("panda.xml", "<compiler angle=\"radian\"/>",
+            "<compiler angle=\"radian\" alignfree=\"true\"/>\n  <option integrator=\"implicitfast\" timestep=\"0.001\"/>");
+  const RobotModel r = loadAnyRobot((dir_ / "panda.xml").string());
+  EXPECT_EQ(r.dof(), 7);
+  EXPECT_THAT(r.spec().notes, ::testing::Contains(::testing::HasSubstr("its <option> (line 4) is left out")));
+  EXPECT_THAT(r.spec().notes, ::testing::Contains(::testing::HasSubstr("its <compiler alignfree> (line 3) is left out")));
+}
+
+TEST_F(BadRobotFiles, AMjcfKeywordNewerThanMujoco22IsNamedWithItsFixAndTheFilesOwnLine) {
+  std::filesystem::copy_file("robots/panda/panda.xml", dir_ / "panda.xml");
+  std::filesystem::copy_file("robots/panda/panda.xml.yaml", dir_ / "panda.xml.yaml");
+  replaceIn("panda.xml.yaml", "gripper: ../grippers/panda_hand.yaml", "gripper: grippers/panda_hand.yaml");
+  replaceIn("panda.xml", "<actuator>", "<option timestep=\"0.001\"/>\n  <actuator>\n    <position name=\"p1\" joint=\"panda_joint1\" kp=\"100\" kv=\"10\"/>");
+  std::string err;
+  try {
+    loadAnyRobot((dir_ / "panda.xml").string());
+  } catch (const InputError& e) {
+    err = e.what();
+  }
+  EXPECT_THAT(err, ::testing::HasSubstr((dir_ / "panda.xml").string() + ":95: MuJoCo rejected the robot"));
+  EXPECT_THAT(err, ::testing::HasSubstr("line 95"));
+  EXPECT_THAT(err, ::testing::HasSubstr("MuJoCo 2.2 lacks it: <position kv> is MuJoCo 2.3's: remove kv"));
+}
+
+TEST_F(BadRobotFiles, TheMjcfKeyframeHomeIsTheHomeWhenTheCompanionGivesNone) {
+  std::filesystem::copy_file("robots/panda/panda.xml", dir_ / "panda.xml");
+  std::filesystem::copy_file("robots/panda/panda.xml.yaml", dir_ / "panda.xml.yaml");
+  replaceIn("panda.xml.yaml", "gripper: ../grippers/panda_hand.yaml", "gripper: grippers/panda_hand.yaml");
+  replaceIn("panda.xml.yaml", "home: [", "# home: [");
+  // Nine entries: the arm's seven, then the hand's two fingers (ignored).
+  replaceIn("panda.xml", "<actuator>", "<keyframe>\n    <key name=\"home\" qpos=\"0.1 -0.5 0 -2 0 1.5 0.7 0.04 0.04\"/>\n  </keyframe>\n  <actuator>");
+  const RobotModel r = loadAnyRobot((dir_ / "panda.xml").string());
+  EXPECT_EQ(r.spec().home_source, "keyframe");
+  EXPECT_NEAR(r.home()[0], 0.1, 1e-12);
+  EXPECT_NEAR(r.home()[3], -2.0, 1e-12);
+  EXPECT_NEAR(r.home()[6], 0.7, 1e-12);
+  replaceIn("panda.xml.yaml", "# home: [", "home: [");  // the companion's wins
+  EXPECT_EQ(loadAnyRobot((dir_ / "panda.xml").string()).spec().home_source, "yaml");
+}
+
+TEST_F(BadRobotFiles, AZeroJointAxisInAUrdfIsNamed) {
+  replaceIn("panda.urdf", "<axis xyz=\"0 0 1\"/>", "<axis xyz=\"0 0 0\"/>");
+  EXPECT_THAT(loadError("panda.urdf"), ::testing::HasSubstr("panda.urdf: joint 'panda_joint1': <axis xyz> is zero (expected a direction)"));
+}
+
+// A root link named world, with one fixed child, is the world: the child is the base, and a
+// massless base is static, not an error. Inertias violating A + B >= C are balanced and said.
+TEST_F(BadRobotFiles, ARootLinkNamedWorldIsTheWorldAndAnUnphysicalInertiaIsBalancedAndSaid) {
+  replaceIn("panda.urdf.yaml", "base_link: panda_link0", "");
+  replaceIn("panda.urdf", "<link name=\"panda_link0\">",
+            "<link name=\"world\"/>\n  <joint name=\"world_joint\" type=\"fixed\"><parent link=\"world\"/><child link=\"panda_link0\"/></joint>\n"
+            "  <link name=\"panda_link0\">");
+  replaceIn("panda.urdf", "<mass value=\"2.92\"/>", "<mass value=\"0\"/>");  // the base: massless
+  replaceIn("panda.urdf", "<inertia ixx=\"0.0442252340498\" ixy=\"0\" ixz=\"0\" iyy=\"0.0387044437423\" iyz=\"0\" izz=\"0.0169528796659\"/>",
+            "<inertia ixx=\"0.01\" ixy=\"0\" ixz=\"0\" iyy=\"0.01\" iyz=\"0\" izz=\"0.05\"/>");
+  ASSERT_EQ(loadError("panda.urdf"), "");
+  const RobotModel r = RobotModel::load((dir_ / "panda.urdf").string());
+  EXPECT_EQ(r.spec().base_link, "panda_link0");
+  EXPECT_EQ(r.spec().links[0].mass, 0.0);
+  EXPECT_THAT(r.spec().notes, ::testing::Contains(::testing::HasSubstr("root link 'world' is the world")));
+  EXPECT_THAT(r.spec().notes, ::testing::Contains(::testing::HasSubstr("link 'panda_link1': its principal moments of inertia (0.01, 0.01, 0.05 kg m^2) "
+                                                                       "violate A + B >= C: balanced to 0.02333 each")));
+  // The model MuJoCo compiles from it (the massless base without an inertial).
+  char err[512] = "";
+  const std::string xml = (dir_ / "written.xml").string();
+  std::ofstream(xml) << writeMjcf(r.spec());
+  mjModel* m = mj_loadXML(xml.c_str(), nullptr, err, sizeof err);
+  EXPECT_NE(m, nullptr) << err;
+  if (m) mj_deleteModel(m);
 }
 
 TEST_F(BadRobotFiles, UrdfCompanionUnknownKeyAndMissingGripper) {

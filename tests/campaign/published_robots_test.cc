@@ -1,0 +1,92 @@
+// Robots as their makers publish them (tests/robot/published/: the files unedited, their licences
+// beside them) run the quickstart task with only the experiment's robot: and gripper: keys. What
+// the loader chose (the flange, a home found above the bin) is printed and recorded; what it
+// changed of the files is said. A robot whose home is not clear of the scene is exit 2 naming the
+// colliding pair, before any trial.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "cli_helpers.h"
+
+namespace mm {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+using namespace testing_cli;
+
+struct Published {
+  const char* file;
+  const char* flange;  // as printed: name (how it was chosen)
+  const char* note;    // one thing said of the file
+};
+
+class PublishedRobot : public ::testing::TestWithParam<Published> {};
+
+TEST_P(PublishedRobot, RunsTheQuickstartUneditedWithOnlyRobotAndGripper) {
+  const Published p = GetParam();
+  TempDir d;
+  const RunResult r = runMinimanip(std::string("run experiments/ur5e_quickstart.yaml --trials 3 --set robot=") + p.file +
+                                   " --set gripper=robots/grippers/robotiq_2f85.yaml --out " + (d.path() / "out").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr(std::string("flange ") + p.flange));
+  EXPECT_THAT(r.out, HasSubstr("(computed: none given; the clear gripper-down pose above the bin farthest from the limits)"));
+  EXPECT_THAT(r.out, HasSubstr(p.note));
+  const auto trials = readTrials(d.path() / "out");
+  ASSERT_EQ(trials.size(), 3u);
+  for (const auto& t : trials) EXPECT_TRUE(t["success"].get<bool>()) << t.dump();
+  // The choices are recorded with the results (as comments: they are not experiment keys).
+  std::ifstream in(d.path() / "out" / "config.resolved.yaml");
+  const std::string resolved((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(resolved, HasSubstr(std::string("# robot ")));
+  EXPECT_THAT(resolved, HasSubstr(std::string("flange ") + p.flange));
+  EXPECT_THAT(resolved, HasSubstr("# home ["));
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Makers, PublishedRobot,
+    ::testing::Values(
+        Published{"tests/robot/published/ur5e/ur5e.urdf", "tool0 (a frame fixed after the last joint, named like a tool frame)",
+                  "ur5e_robot"},
+        Published{"tests/robot/published/panda_moveit/moveit_resources_panda_description/urdf/panda.urdf",
+                  "panda_hand (the link the robot file's own hand hangs from)",
+                  "note: the links below the flange 'panda_hand' (panda_leftfinger, panda_rightfinger) are left out"},
+        Published{"tests/robot/published/xarm6/xarm6_robot.urdf", "link6 (the last link the arm's joints turn)",
+                  "note: link 'link2': its principal moments of inertia"}),
+    [](const ::testing::TestParamInfo<Published>& i) { return std::string(i.index == 0 ? "ur5e" : i.index == 1 ? "panda" : "xarm6"); });
+
+TEST(PublishedRobots, ThePandaWithoutItsCompanionSaysWhatItLacksAndTheKeyThatGivesIt) {
+  TempDir d;
+  fs::copy("tests/robot/published/panda_moveit", d.path() / "panda_moveit", fs::copy_options::recursive);
+  const fs::path urdf = d.path() / "panda_moveit/moveit_resources_panda_description/urdf/panda.urdf";
+  fs::remove(urdf.string() + ".yaml");
+  const RunResult r = runMinimanip("run experiments/ur5e_quickstart.yaml --trials 1 --set robot=" + urdf.string() +
+                                   " --set gripper=robots/grippers/robotiq_2f85.yaml --out " + (d.path() / "out").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_THAT(r.out, HasSubstr(urdf.string() + ": link 'panda_link1' has no mass"));
+  EXPECT_THAT(r.out, HasSubstr("default_link_mass: <kg> in " + urdf.string() + ".yaml"));
+  EXPECT_FALSE(fs::exists(d.path() / "out" / "trials.jsonl"));
+}
+
+TEST(PublishedRobots, AHomeThatIsNotClearOfTheSceneIsExitTwoNamingTheCollidingPair) {
+  TempDir d;
+  std::ifstream in("robots/ur5e/ur5e.yaml");
+  std::string arm((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (const auto& [from, to] : {std::pair<std::string, std::string>{"home: [0.449324, -1.60236, -1.149, 1.18056, -1.570796, 2.02012]",
+                                                                     "home: [0, 1.0, 0, 0, 0, 0]"},
+                                 {"gripper: ../grippers/", "gripper: " + (fs::current_path() / "robots/grippers/").string()}}) {
+    const auto pos = arm.find(from);
+    ASSERT_NE(pos, std::string::npos) << from;
+    arm.replace(pos, from.size(), to);
+  }
+  const std::string robot = d.file("arm.yaml", arm);
+  const RunResult r = runMinimanip("run experiments/ur5e_quickstart.yaml --trials 1 --set robot=" + robot + " --out " +
+                                   (d.path() / "out").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_THAT(r.out, HasSubstr(robot + ": home [0, 1, 0, 0, 0, 0] is not clear of the scene"));
+  EXPECT_THAT(r.out, HasSubstr("ur5e_upper_arm / table"));
+  EXPECT_FALSE(fs::exists(d.path() / "out" / "trials.jsonl"));
+}
+
+}  // namespace
+}  // namespace mm
