@@ -16,6 +16,7 @@
 #include "bench/ik_bench.h"
 #include "bench/plan_bench.h"
 #include "campaign/campaign.h"
+#include "campaign/cell_check.h"
 #include "campaign/experiment.h"
 #include "campaign/record.h"
 #include "campaign/gate.h"
@@ -109,6 +110,12 @@ int main(int argc, char** argv) {
   CLI::App* bench = app.add_subcommand("bench", "harness benchmark: each trial through the tree, through the tree-less "
                                                  "chain and as bare MuJoCo stepping");
   addRunOptions(bench, bench_args, false);
+  RunArgs check_args;
+  CLI::App* check = app.add_subcommand("check", "every check a run makes before its first trial, and a dry run of the cell: how the "
+                                                 "robot's files were read (flange, TCP, home, IK solver), home clear of the scene, the "
+                                                 "gripper's reach over the bin and the place target, the camera seeing the bin; "
+                                                 "exit 0 (weak figures are warnings), 2 bad input");
+  addRunOptions(check, check_args, false);
 
   mm::IkBenchOptions ik;
   ik.scene = "scenes/bin_table.xml";
@@ -189,9 +196,9 @@ int main(int argc, char** argv) {
       const std::string option = i > 1 && argv[i - 1][0] == '-' && arg[0] != '-' ? std::string(argv[i - 1]) : "argument " + std::to_string(i);
       mm::requireUtf8(arg, option, "'" + mm::escapeInvalidUtf8(arg.size() > 60 ? arg.substr(0, 60) + "..." : arg) + "'");
     }
-    const std::vector<std::string> commands = {"run", "bench", "render", "calibrate", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc", "merge", "report", "gate", "gate-doc", "worker"};
+    const std::vector<std::string> commands = {"run", "check", "bench", "render", "calibrate", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc", "merge", "report", "gate", "gate-doc", "worker"};
     if (argc > 1 && argv[1][0] != '-' && std::find(commands.begin(), commands.end(), argv[1]) == commands.end())
-      throw mm::InputError(argv[1], "unknown command (expected run, bench, render, calibrate, merge, report, gate, ik-bench, plan-bench, config-doc, nodes-doc, results-doc or gate-doc; --help)");
+      throw mm::InputError(argv[1], "unknown command (expected run, check, bench, render, calibrate, merge, report, gate, ik-bench, plan-bench, config-doc, nodes-doc, results-doc or gate-doc; --help)");
     try {
       app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -242,6 +249,11 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (worker->parsed()) return mm::runWorker(mm::loadExperiment(worker_args.file, worker_args.sets, {}, false), worker_args.out);
+    if (check->parsed()) {
+      const mm::CellCheck c = mm::checkCell(loadRun(check_args));
+      std::cout << c.text << (c.warnings ? std::to_string(c.warnings) + " warning(s)\n" : std::string("all clear\n"));
+      return 0;
+    }
     if (run->parsed() || bench->parsed()) {
       const RunArgs& r = run->parsed() ? run_args : bench_args;
       const mm::Experiment e = loadRun(r);

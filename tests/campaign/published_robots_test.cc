@@ -2,7 +2,7 @@
 // beside them) run the quickstart task with only the experiment's robot: and gripper: keys. What
 // the loader chose (the flange, a home found above the bin) is printed and recorded; what it
 // changed of the files is said. A robot whose home is not clear of the scene is exit 2 naming the
-// colliding pair, before any trial.
+// colliding pair, before any trial; `minimanip check` says the same without running one.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -43,6 +43,20 @@ TEST_P(PublishedRobot, RunsTheQuickstartUneditedWithOnlyRobotAndGripper) {
   EXPECT_THAT(resolved, HasSubstr("# home ["));
 }
 
+// `minimanip check`: the same choices, and the cell's dry run, without a trial.
+TEST_P(PublishedRobot, CheckSaysHowItWasReadAndWhatItReaches) {
+  const Published p = GetParam();
+  const RunResult r = runMinimanip(std::string("check experiments/ur5e_quickstart.yaml --set robot=") + p.file +
+                                   " --set gripper=robots/grippers/robotiq_2f85.yaml");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr(std::string("flange ") + p.flange));
+  EXPECT_THAT(r.out, HasSubstr("gripper robotiq_2f85 (robots/grippers/robotiq_2f85.yaml) on the flange"));
+  EXPECT_THAT(r.out, HasSubstr("IK solver dls (kinematics.solver auto: the robot declares no closed form, so the numerical dls)"));
+  EXPECT_THAT(r.out, HasSubstr("home clear of the scene, "));
+  EXPECT_THAT(r.out, ::testing::ContainsRegex("reach over the bin: [0-9]+ of 50"));
+  EXPECT_THAT(r.out, HasSubstr("reach over the place target: 18 of 18 (100%) gripper-down poses have an IK solution"));
+}
+
 INSTANTIATE_TEST_SUITE_P(
     Makers, PublishedRobot,
     ::testing::Values(
@@ -68,6 +82,13 @@ TEST(PublishedRobots, ThePandaWithoutItsCompanionSaysWhatItLacksAndTheKeyThatGiv
   EXPECT_FALSE(fs::exists(d.path() / "out" / "trials.jsonl"));
 }
 
+TEST(PublishedRobots, CheckNamesTheClosedFormOfAnArmThatDeclaresOne) {
+  const RunResult r = runMinimanip("check experiments/quickstart.yaml");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("IK solver analytic (kinematics.solver auto: the robot's closed form 'panda')"));
+  EXPECT_THAT(r.out, HasSubstr("home [0, -0.7854, 0, -2.356, 0, 1.571, 0.7854] (the robot's files)"));
+}
+
 TEST(PublishedRobots, AHomeThatIsNotClearOfTheSceneIsExitTwoNamingTheCollidingPair) {
   TempDir d;
   std::ifstream in("robots/ur5e/ur5e.yaml");
@@ -86,6 +107,9 @@ TEST(PublishedRobots, AHomeThatIsNotClearOfTheSceneIsExitTwoNamingTheCollidingPa
   EXPECT_THAT(r.out, HasSubstr(robot + ": home [0, 1, 0, 0, 0, 0] is not clear of the scene"));
   EXPECT_THAT(r.out, HasSubstr("ur5e_upper_arm / table"));
   EXPECT_FALSE(fs::exists(d.path() / "out" / "trials.jsonl"));
+  const RunResult c = runMinimanip("check experiments/ur5e_quickstart.yaml --set robot=" + robot);
+  EXPECT_EQ(c.code, 2) << c.out;
+  EXPECT_THAT(c.out, HasSubstr("ur5e_upper_arm / table"));
 }
 
 }  // namespace
