@@ -326,13 +326,6 @@ SharedQueue<T> parseQueue(const std::string& text) {
   return q;
 }
 
-template <class T>
-std::string queueTypeName();
-template <> std::string queueTypeName<int>() { return "int"; }
-template <> std::string queueTypeName<bool>() { return "bool"; }
-template <> std::string queueTypeName<double>() { return "double"; }
-template <> std::string queueTypeName<std::string>() { return "std::string"; }
-
 // LoopInt, LoopBool, LoopDouble, LoopString: pops the front of `queue` into `value` and ticks the
 // child, once a tick, while the queue has items; FAILURE when the child fails; `if_empty` when the
 // queue is empty with the child not running. The queue is a literal ("1;2;3", copied afresh each

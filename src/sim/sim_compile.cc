@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cstring>
 #include <filesystem>
+#include <regex>
 #include <sstream>
 
 #include "core/error.h"
@@ -108,6 +109,34 @@ void SimWorld::setObjects(const std::vector<ObjectKind>& objects) {
   reset(S.home);
 }
 
+namespace {
+
+// MuJoCo names a line of the composed model. When that line is one of the robot's elements (a
+// body, joint or geom the robot's file named), the robot's file is the place to look, with the
+// element; else the scene's.
+std::string robotOrScene(const std::string& composed, const char* err, const RobotSpec& robot, const std::string& scene_xml) {
+  std::smatch hit;
+  const std::string msg = err;
+  const std::vector<std::string> names = robot.names();
+  auto robots = [&](const std::string& name) { return std::find(names.begin(), names.end(), name) != names.end(); };
+  // A compile error names its object ("Object name = panda_link1, id = 2, line = 29").
+  if (std::regex_search(msg, hit, std::regex("Object name = ([^,\\s]+)")) && robots(hit[1].str()))
+    return robot.file + ": '" + hit[1].str() + "'";
+  // A schema error names its element and line ("Element 'joint', line 40").
+  if (!std::regex_search(msg, hit, std::regex("line =? ?(\\d+)"))) return scene_xml;
+  const int line = std::stoi(hit[1]);
+  std::istringstream in(composed);
+  std::string text;
+  for (int k = 0; k < line && std::getline(in, text); ++k) {
+  }
+  std::smatch tag;
+  if (!std::regex_search(text, tag, std::regex("<(\\w+)[^>]*\\bname=\"([^\"]*)\""))) return scene_xml;
+  if (!robots(tag[2].str())) return scene_xml;
+  return robot.file + ": <" + tag[1].str() + " name=\"" + tag[2].str() + "\">";
+}
+
+}  // namespace
+
 std::unique_ptr<SimWorld::Impl> SimWorld::compile(const Shared& S, const std::vector<ObjectKind>& objects) {
   const std::string& scene_xml = S.scene_xml;
   auto impl = std::make_unique<Impl>();
@@ -133,7 +162,13 @@ std::unique_ptr<SimWorld::Impl> SimWorld::compile(const Shared& S, const std::ve
     }
     mj_deleteVFS(vfs.get());
   }
-  if (!I.m) throw InputError(scene_xml, std::string("MuJoCo rejected the scene with ") + S.spec.name + " mounted: " + err);
+  if (!I.m) {
+    std::string what = err;
+    std::replace(what.begin(), what.end(), '\n', ' ');
+    const std::string where = robotOrScene(xml, err, S.spec, scene_xml);
+    if (where != scene_xml) throw InputError(where, "MuJoCo rejected the robot (mounted in " + scene_xml + "): " + what);
+    throw InputError(scene_xml, "MuJoCo rejected the scene with " + S.spec.name + " mounted: " + what);
+  }
   static std::atomic<uint64_t> serials{0};
   I.serial = ++serials;
   I.d = mj_makeData(I.m);

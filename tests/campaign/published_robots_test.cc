@@ -6,6 +6,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <tuple>
+
 #include "cli_helpers.h"
 
 namespace mm {
@@ -110,6 +112,30 @@ TEST(PublishedRobots, AHomeThatIsNotClearOfTheSceneIsExitTwoNamingTheCollidingPa
   const RunResult c = runMinimanip("check experiments/ur5e_quickstart.yaml --set robot=" + robot);
   EXPECT_EQ(c.code, 2) << c.out;
   EXPECT_THAT(c.out, HasSubstr("ur5e_upper_arm / table"));
+}
+
+// MuJoCo's complaint about a robot names the robot's file and its link, not the composed scene.
+TEST(PublishedRobots, MujocosComplaintAboutARobotNamesTheRobotsFileAndLink) {
+  TempDir d;
+  auto slurpFile = [](const std::string& f) {
+    std::ifstream in(f);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  std::string urdf = slurpFile("robots/panda/panda.urdf");
+  std::string companion = slurpFile("robots/panda/panda.urdf.yaml");
+  for (auto [text, from, to] : {std::tuple<std::string*, std::string, std::string>{&urdf, "<mass value=\"4.97\"/>", "<mass value=\"1e-30\"/>"},
+                                {&urdf, "ixx=\"0.0442252340498\" ixy=\"0\" ixz=\"0\" iyy=\"0.0387044437423\" iyz=\"0\" izz=\"0.0169528796659\"",
+                                 "ixx=\"1e-30\" ixy=\"0\" ixz=\"0\" iyy=\"1e-30\" iyz=\"0\" izz=\"1e-30\""},
+                                {&companion, "gripper: ../grippers/", "gripper: " + (fs::current_path() / "robots/grippers/").string()}}) {
+    const auto pos = text->find(from);
+    ASSERT_NE(pos, std::string::npos) << from;
+    text->replace(pos, from.size(), to);
+  }
+  const std::string robot = d.file("panda.urdf", urdf);
+  d.file("panda.urdf.yaml", companion);
+  const RunResult r = runMinimanip("run experiments/quickstart.yaml --trials 1 --set robot=" + robot + " --out " + (d.path() / "out").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_THAT(r.out, HasSubstr(robot + ": 'panda_link1': MuJoCo rejected the robot (mounted in scenes/bin_table.xml)"));
 }
 
 }  // namespace

@@ -273,6 +273,24 @@ TEST_F(BadRobotFiles, TheMjcfKeyframeHomeIsTheHomeWhenTheCompanionGivesNone) {
   EXPECT_EQ(loadAnyRobot((dir_ / "panda.xml").string()).spec().home_source, "yaml");
 }
 
+// A robot file that carries its own hand: the flange is where the hand hangs, and the hand is
+// left out (the gripper is a part of its own), said.
+TEST_F(BadRobotFiles, TheHandAnMjcfCarriesIsLeftOutAndItsMountIsTheFlange) {
+  std::filesystem::copy_file("robots/panda/panda.xml", dir_ / "panda.xml");
+  std::filesystem::copy_file("robots/panda/panda.xml.yaml", dir_ / "panda.xml.yaml");
+  replaceIn("panda.xml.yaml", "gripper: ../grippers/panda_hand.yaml", "gripper: grippers/panda_hand.yaml");
+  for (const char* key : {"flange_link: panda_link7", "flange_d: 0.107", "hand_yaw: -0.785398163397448"}) replaceIn("panda.xml.yaml", key, "");
+  const RobotModel chosen = loadAnyRobot((dir_ / "panda.xml").string());
+  EXPECT_EQ(chosen.spec().flange_link, "panda_hand");
+  EXPECT_EQ(chosen.spec().flange_choice, "the body the robot file's own hand hangs from");
+  EXPECT_THAT(chosen.spec().notes, ::testing::Contains(::testing::HasSubstr("below the flange 'panda_hand'")));
+  // The same mount as the companion's flange_link, flange_d and hand_yaw said it.
+  const RobotModel told = loadAnyRobot("robots/panda/panda.xml");
+  const VecX q = told.home();
+  EXPECT_LT((chosen.fk(q).translation() - told.fk(q).translation()).norm(), 1e-9);
+  EXPECT_LT((chosen.fk(q).linear() - told.fk(q).linear()).norm(), 1e-9);
+}
+
 TEST_F(BadRobotFiles, AZeroJointAxisInAUrdfIsNamed) {
   replaceIn("panda.urdf", "<axis xyz=\"0 0 1\"/>", "<axis xyz=\"0 0 0\"/>");
   EXPECT_THAT(loadError("panda.urdf"), ::testing::HasSubstr("panda.urdf: joint 'panda_joint1': <axis xyz> is zero (expected a direction)"));
