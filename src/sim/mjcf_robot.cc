@@ -307,6 +307,7 @@ std::string mjcfAsRead(const std::string& path, std::vector<std::string>& notes,
   tinyxml2::XMLDocument doc;
   if (doc.LoadFile(path.c_str()) != tinyxml2::XML_SUCCESS) throw InputError(path, "cannot read the MJCF robot");
   tinyxml2::XMLElement* root = doc.RootElement();
+  if (!root) throw InputError(path, "expected a <mujoco> root element");
   static const std::set<std::string> kLeftOut = {"option", "size", "visual", "statistic", "extension"};
   static const std::set<std::string> kCompilerKept = {"angle", "eulerseq", "meshdir", "texturedir", "assetdir", "autolimits",
                                                       "coordinate", "inertiafromgeom", "inertiagrouprange", "boundmass",
@@ -338,10 +339,9 @@ std::string mjcfAsRead(const std::string& path, std::vector<std::string>& notes,
   tinyxml2::XMLPrinter printer;
   doc.Print(&printer);
   const std::string text = printer.CStr();
-  tinyxml2::XMLDocument again;
-  again.Parse(text.c_str());
+  tinyxml2::XMLDocument again;  // what tinyxml2 printed reads back, but for text it cannot print again
   std::vector<int> printed;
-  walk(again.RootElement(), printed);
+  if (again.Parse(text.c_str()) == tinyxml2::XML_SUCCESS && again.RootElement()) walk(again.RootElement(), printed);
   for (size_t k = 0; k < printed.size() && k < original.size(); ++k) {
     if (static_cast<int>(lines.size()) <= printed[k]) lines.resize(printed[k] + 1, 0);
     lines[printed[k]] = original[k];
