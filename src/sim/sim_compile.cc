@@ -119,7 +119,7 @@ std::string robotOrScene(const std::string& composed, const char* err, const Rob
   const std::string msg = err;
   const std::vector<std::string> names = robot.names();
   auto robots = [&](const std::string& name) { return std::find(names.begin(), names.end(), name) != names.end(); };
-  // A compile error names its object ("Object name = panda_link1, id = 2, line = 29").
+  // A compile error names its object ("Object name = <name>, id = 2, line = 29").
   if (std::regex_search(msg, hit, std::regex("Object name = ([^,\\s]+)")) && robots(hit[1].str()))
     return robot.file + ": '" + hit[1].str() + "'";
   // A schema error names its element and line ("Element 'joint', line 40").
