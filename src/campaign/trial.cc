@@ -171,6 +171,12 @@ Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& worl
     c.perception.shapes.push_back({kind->name, kind->half_size, kind->mass});
   }
   c.perception.crop_half = bin_half;
+  // What the sensor looks at rises to three of the tallest kind (a pile stacks them), unless given.
+  if (c.perception.crop_height <= 0) {
+    double tallest = 0;
+    for (const std::string& k : c.spawn.kinds) tallest = std::max(tallest, 2 * c.spawn.loaded.find(k)->half_size.maxCoeff());
+    c.perception.crop_height = std::max(0.1, 3 * tallest);
+  }
   return c;
 }
 

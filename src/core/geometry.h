@@ -30,6 +30,7 @@ struct ObjectState {
   ObjectShape shape = ObjectShape::kBox;
   Vec3 half_size = Vec3::Zero();  ///< box: half sizes; cylinder: (radius, radius, half height) — its bounding box [m]
   double mass = 0;                ///< [kg] its kind's nominal mass (a real cell's item master data)
+  double seen = 1;                ///< camera mode: the share of its face the camera saw (a face partly hidden: its pose is less sure)
 };
 
 /// The rotation [rad] between two orientations of an object, up to its symmetries: a box's

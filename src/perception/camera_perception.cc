@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <limits>
 
 namespace mm {
@@ -82,6 +83,285 @@ Plane ransacPlane(const std::vector<Vec3>& pts, double threshold, Rng& rng, int*
   return in.size() >= 3 ? fitPlane(in) : best;
 }
 
+// The plane of a set of points from their moments (about an origin near them, for precision).
+struct Moments {
+  Vec3 origin = Vec3::Zero(), sum = Vec3::Zero();
+  Mat3 outer = Mat3::Zero();
+  double n = 0;
+  void add(const Vec3& p) {
+    const Vec3 q = p - origin;
+    sum += q, outer += q * q.transpose(), n += 1;
+  }
+  // The plane, and the mean squared distance of the points from it.
+  Plane plane(double* mse = nullptr) const {
+    const Vec3 c = sum / n;
+    const Mat3 C = outer / n - c * c.transpose();
+    Eigen::SelfAdjointEigenSolver<Mat3> es(C);
+    Plane pl;
+    pl.n = es.eigenvectors().col(0).normalized();
+    if (pl.n.z() < 0) pl.n = -pl.n;
+    pl.d = pl.n.dot(c + origin);
+    if (mse) *mse = std::max(0.0, es.eigenvalues()(0));
+    return pl;
+  }
+};
+
+// Faces: regions grown over the pixels above the floor whose points lie on the region's plane
+// within the sensor's noise (3 sigma, sigma = k z^2) and join their neighbour without a depth jump.
+// Seeds: a 9 x 9 patch around every 4th pixel, flattest first (its plane's residual against the
+// noise expected there); a patch not flat within 1.5 sigma seeds nothing (a ridge, an edge).
+std::vector<std::vector<int>> growFaces(const std::vector<Vec3>& pts, const std::vector<int>& index_of, int w, int h,
+                                        const std::vector<float>& depth, const CameraPerceptionOptions& o, const Plane& floor) {
+  auto valid = [&](int k) { return index_of[static_cast<size_t>(k)] >= 0 && floor.distance(pts[static_cast<size_t>(index_of[static_cast<size_t>(k)])]) > o.plane_threshold; };
+  auto P = [&](int k) -> const Vec3& { return pts[static_cast<size_t>(index_of[static_cast<size_t>(k)])]; };
+  auto sigma = [&](int k) {
+    const double z = depth[static_cast<size_t>(k)];
+    return std::max(0.0005, o.depth_sigma_k * z * z);
+  };
+  constexpr int r = 4, step = 4;
+  std::vector<std::pair<double, int>> seeds;
+  for (int v = r; v < h - r; v += step)
+    for (int u = r; u < w - r; u += step) {
+      const int k = v * w + u;
+      if (!valid(k)) continue;
+      Moments m;
+      m.origin = P(k);
+      bool full = true;
+      for (int dv = -r; dv <= r && full; ++dv)
+        for (int du = -r; du <= r; ++du) {
+          const int q = k + dv * w + du;
+          if (!valid(q)) {
+            full = false;
+            break;
+          }
+          m.add(P(q));
+        }
+      if (!full) continue;
+      double mse = 0;
+      m.plane(&mse);
+      const double flatness = std::sqrt(mse) / sigma(k);
+      if (flatness < 1.5) seeds.push_back({flatness, k});
+    }
+  std::stable_sort(seeds.begin(), seeds.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<int> label(static_cast<size_t>(w) * static_cast<size_t>(h), -1);
+  std::vector<std::vector<int>> regions;
+  for (const auto& [flat, seed] : seeds) {
+    if (label[static_cast<size_t>(seed)] >= 0) continue;
+    const int id = static_cast<int>(regions.size());
+    std::vector<int> region;
+    Moments m;
+    m.origin = P(seed);
+    for (int dv = -r; dv <= r; ++dv)
+      for (int du = -r; du <= r; ++du) {
+        const int q = seed + dv * w + du;
+        if (label[static_cast<size_t>(q)] >= 0) continue;
+        label[static_cast<size_t>(q)] = id;
+        region.push_back(q);
+        m.add(P(q));
+      }
+    Plane pl = m.plane();
+    double refit_at = 2 * m.n;
+    for (size_t head = 0; head < region.size(); ++head) {
+      const int k = region[head];
+      const int u = k % w, v = k / w;
+      const int nb[4] = {u > 0 ? k - 1 : -1, u < w - 1 ? k + 1 : -1, v > 0 ? k - w : -1, v < h - 1 ? k + w : -1};
+      for (int q : nb) {
+        if (q < 0 || label[static_cast<size_t>(q)] >= 0 || !valid(q)) continue;
+        const double tol = 3 * sigma(q);
+        if (std::abs(pl.distance(P(q))) > tol || (P(q) - P(k)).norm() > tol + 0.005) continue;
+        label[static_cast<size_t>(q)] = id;
+        region.push_back(q);
+        m.add(P(q));
+        if (m.n >= refit_at) pl = m.plane(), refit_at = 2 * m.n;
+      }
+    }
+    regions.push_back(std::move(region));
+  }
+  return regions;
+}
+
+// A rectangle on a face's plane (2-D plane coordinates): a catalogue kind's face, its centre and
+// angle, and which of the kind's axes stands out of the face.
+struct FaceRect {
+  const KnownShape* shape = nullptr;
+  int up = 2;
+  bool swap = false;
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
+  double theta = 0;
+  double half_w = 0, half_h = 0;  ///< along theta, across it
+  int pixels = 0;
+  double seen = 1;  ///< the share of the rectangle the face's region covers
+};
+
+// The kind and axis whose face sides fit a w x h rectangle best; returns the cost (|dw| + |dh|).
+double bestFaceKind(const std::vector<KnownShape>& shapes, double fw, double fh, FaceRect* out) {
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (const KnownShape& sh : shapes)
+    for (int a = 0; a < 3; ++a) {
+      const int b = (a + 1) % 3, d = (a + 2) % 3;
+      for (int sw = 0; sw < 2; ++sw) {
+        const double sa = 2 * sh.half_size[sw ? d : b], sb = 2 * sh.half_size[sw ? b : d];
+        const double cost = std::abs(fw - sa) + std::abs(fh - sb);
+        if (cost < best_cost) {
+          best_cost = cost;
+          out->shape = &sh, out->up = a, out->swap = sw, out->half_w = sa / 2, out->half_h = sb / 2;
+        }
+      }
+    }
+  return best_cost;
+}
+
+// The outline fit: boundary points against the rectangle's four edges, its centre and angle (and
+// size, when `fit_size`) by Gauss-Newton, robust beyond 3 mm (pixel quantization averages out
+// over the edges' many points, where minAreaRect's hull rests on a few). Without `fit_size` only
+// the points within 4 mm of the rectangle's sides count (a face sharing a side with another).
+void fitOutline(const std::vector<Eigen::Vector2d>& all_edge, FaceRect& fr, bool fit_size) {
+  std::vector<Eigen::Vector2d> edge;
+  if (fit_size) {
+    edge = all_edge;
+  } else {
+    const Eigen::Vector2d ax(std::cos(fr.theta), std::sin(fr.theta)), ay(-std::sin(fr.theta), std::cos(fr.theta));
+    for (const Eigen::Vector2d& q : all_edge) {
+      const double x = std::abs(ax.dot(q - fr.c)), y = std::abs(ay.dot(q - fr.c));
+      const bool on_x = std::abs(x - fr.half_w) < 0.004 && y < fr.half_h + 0.004;
+      const bool on_y = std::abs(y - fr.half_h) < 0.004 && x < fr.half_w + 0.004;
+      if (on_x || on_y) edge.push_back(q);
+    }
+    if (edge.size() < 12) return;
+  }
+  for (int it = 0; it < 15; ++it) {
+    Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
+    Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
+    const Eigen::Vector2d ax(std::cos(fr.theta), std::sin(fr.theta)), ay(-std::sin(fr.theta), std::cos(fr.theta));
+    for (const Eigen::Vector2d& q : edge) {
+      const Eigen::Vector2d r = q - fr.c;
+      const double x = ax.dot(r), y = ay.dot(r);
+      // The nearer of the two edges across the point's side: the x edges or the y edges.
+      const bool x_edge = std::abs(std::abs(x) - fr.half_w) < std::abs(std::abs(y) - fr.half_h);
+      const Eigen::Vector2d nrm = x_edge ? (x >= 0 ? ax : Eigen::Vector2d(-ax)) : (y >= 0 ? ay : Eigen::Vector2d(-ay));
+      const double res_k = nrm.dot(r) - (x_edge ? fr.half_w : fr.half_h);
+      const double wgt = std::abs(res_k) < 0.003 ? 1.0 : 0.003 / std::abs(res_k);
+      // d/dc = -n; d/dtheta = (dn/dtheta) . r, dn/dtheta = n rotated by +90 degrees; d/dsize = -1.
+      const Eigen::Vector2d dn(-nrm.y(), nrm.x());
+      Eigen::Matrix<double, 5, 1> J;
+      J << -nrm.x(), -nrm.y(), dn.dot(r), x_edge ? -1.0 : 0.0, x_edge ? 0.0 : -1.0;
+      if (!fit_size) J(3) = J(4) = 0;
+      H += wgt * J * J.transpose();
+      g += wgt * J * res_k;
+    }
+    if (!fit_size) H(3, 3) = H(4, 4) = 1;
+    const Eigen::Matrix<double, 5, 1> step = H.ldlt().solve(-g);
+    if (!step.allFinite()) break;
+    fr.c += step.head<2>();
+    fr.theta += step(2);
+    fr.half_w += step(3);
+    fr.half_h += step(4);
+    if (step.norm() < 1e-8) break;
+  }
+}
+
+// Faces of several boxes in one plane: the region's points rasterized on the plane (1.5 mm
+// cells, closed), its outline's straight edges (approxPolyDP), and along each edge long enough,
+// the catalogue's face rectangles laid inward from either end; the rectangle whose cells are the
+// most covered by the region's still unclaimed cells is taken (at least 92% covered) and its cells
+// claimed, until none is. Each taken rectangle is then fitted to the outline points along its own
+// sides, its size kept.
+std::vector<FaceRect> packFaceRects(const std::vector<cv::Point2f>& flat, const std::vector<Eigen::Vector2d>& edge,
+                                    const std::vector<KnownShape>& shapes, const std::function<int(const Eigen::Vector2d&)>& seen,
+                                    double min_coverage) {
+  std::vector<FaceRect> out;
+  if (flat.empty() || shapes.empty()) return out;
+  constexpr double cell = 0.0015;
+  float x0 = flat[0].x, y0 = flat[0].y, x1 = x0, y1 = y0;
+  for (const cv::Point2f& p : flat) x0 = std::min(x0, p.x), y0 = std::min(y0, p.y), x1 = std::max(x1, p.x), y1 = std::max(y1, p.y);
+  const int gw = static_cast<int>((x1 - x0) / cell) + 3, gh = static_cast<int>((y1 - y0) / cell) + 3;
+  if (static_cast<double>(gw) * gh > 4e6) return out;
+  cv::Mat grid = cv::Mat::zeros(gh, gw, CV_8UC1);
+  for (const cv::Point2f& p : flat) grid.at<uint8_t>(static_cast<int>((p.y - y0) / cell) + 1, static_cast<int>((p.x - x0) / cell) + 1) = 255;
+  cv::morphologyEx(grid, grid, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(5, 5)));
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(grid.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  auto to_plane = [&](double gx, double gy) { return Eigen::Vector2d(x0 + (gx - 1 + 0.5) * cell, y0 + (gy - 1 + 0.5) * cell); };
+  cv::Mat claimed = cv::Mat::zeros(gh, gw, CV_8UC1);
+  // The share of a rectangle's cells that are the region's and unclaimed; 0 when more than 5% of
+  // the others are contradicted by the camera: it sees past the face there (floor, a lower
+  // surface), or a surface at the face's depth that is not this region's (another box's face, one
+  // already claimed). Only cells hidden behind something nearer are not: a face half under a
+  // leaning cube. Cells the sensor lost say nothing either way.
+  auto coverage = [&](const FaceRect& fr) {
+    const Eigen::Vector2d ax(std::cos(fr.theta), std::sin(fr.theta)), ay(-std::sin(fr.theta), std::cos(fr.theta));
+    int in = 0, all = 0, bad = 0;
+    for (double s = -fr.half_w + cell / 2; s < fr.half_w; s += cell)
+      for (double t = -fr.half_h + cell / 2; t < fr.half_h; t += cell) {
+        const Eigen::Vector2d q = fr.c + s * ax + t * ay;
+        const int gx = static_cast<int>(std::floor((q.x() - x0) / cell)) + 1, gy = static_cast<int>(std::floor((q.y() - y0) / cell)) + 1;
+        ++all;
+        if (gx >= 0 && gy >= 0 && gx < gw && gy < gh && grid.at<uint8_t>(gy, gx)) {
+          in += !claimed.at<uint8_t>(gy, gx);
+        } else {
+          const int what = seen(q);
+          bad += what == 0 || what == 2;
+        }
+      }
+    if (all == 0 || bad > 0.05 * all) return 0.0;
+    return static_cast<double>(in) / all;
+  };
+  // Hypotheses: for every straight edge, every face size, both ends.
+  std::vector<FaceRect> hyps;
+  for (const std::vector<cv::Point>& contour : contours) {
+    std::vector<cv::Point> poly;
+    cv::approxPolyDP(contour, poly, 2.0, true);
+    for (size_t i = 0; i < poly.size(); ++i) {
+      const Eigen::Vector2d p = to_plane(poly[i].x, poly[i].y), q = to_plane(poly[(i + 1) % poly.size()].x, poly[(i + 1) % poly.size()].y);
+      const double len = (q - p).norm();
+      if (len < 0.015) continue;
+      const Eigen::Vector2d t = (q - p) / len;
+      for (const KnownShape& sh : shapes)
+        for (int a = 0; a < 3; ++a) {
+          const int b = (a + 1) % 3, d = (a + 2) % 3;
+          for (int sw = 0; sw < 2; ++sw) {
+            const double along = 2 * sh.half_size[sw ? d : b], across = 2 * sh.half_size[sw ? b : d];
+            if (len < 0.5 * along) continue;
+            for (int end = 0; end < 2; ++end)
+              for (int side = 0; side < 2; ++side) {
+                const Eigen::Vector2d n = side ? Eigen::Vector2d(-t.y(), t.x()) : Eigen::Vector2d(t.y(), -t.x());
+                const Eigen::Vector2d start = end ? Eigen::Vector2d(q - t * along) : p;
+                FaceRect fr;
+                fr.shape = &sh, fr.up = a, fr.swap = sw, fr.half_w = along / 2, fr.half_h = across / 2;
+                fr.c = start + t * (along / 2) + n * (across / 2);
+                fr.theta = std::atan2(t.y(), t.x());
+                hyps.push_back(fr);
+              }
+          }
+        }
+    }
+  }
+  for (;;) {
+    double best = min_coverage;
+    int pick = -1;
+    for (size_t i = 0; i < hyps.size(); ++i) {
+      const double cov = coverage(hyps[i]);
+      if (cov > best) best = cov, pick = static_cast<int>(i);
+    }
+    if (pick < 0) break;
+    FaceRect fr = hyps[static_cast<size_t>(pick)];
+    // Claim its cells.
+    const Eigen::Vector2d ax(std::cos(fr.theta), std::sin(fr.theta)), ay(-std::sin(fr.theta), std::cos(fr.theta));
+    int cells = 0;
+    for (double s = -fr.half_w; s <= fr.half_w; s += cell / 2)
+      for (double t = -fr.half_h; t <= fr.half_h; t += cell / 2) {
+        const Eigen::Vector2d q = fr.c + s * ax + t * ay;
+        const int gx = static_cast<int>(std::floor((q.x() - x0) / cell)) + 1, gy = static_cast<int>(std::floor((q.y() - y0) / cell)) + 1;
+        if (gx >= 0 && gy >= 0 && gx < gw && gy < gh && !claimed.at<uint8_t>(gy, gx)) claimed.at<uint8_t>(gy, gx) = 255, ++cells;
+      }
+    fitOutline(edge, fr, false);
+    fr.pixels = cells;
+    fr.seen = best;
+    out.push_back(fr);
+  }
+  return out;
+}
+
 }  // namespace
 
 CameraPerceptionResult detectBoxes(const Frame& frame, const std::vector<KnownShape>& shapes,
@@ -114,40 +394,29 @@ CameraPerceptionResult detectBoxes(const Frame& frame, const std::vector<KnownSh
   }
   // The support plane: the bin floor. What rises above it is objects.
   const Plane floor = ransacPlane(pts, o.plane_threshold, rng, &res.plane_inliers);
-  cv::Mat mask = cv::Mat::zeros(h, w, CV_8UC1);
   std::vector<int> index_of(static_cast<size_t>(w) * static_cast<size_t>(h), -1);  // pixel -> point
   for (size_t i = 0; i < pts.size(); ++i)
     if (floor.distance(pts[i]) > o.plane_threshold) {
-      mask.data[pix[i]] = 255;
       index_of[static_cast<size_t>(pix[i])] = static_cast<int>(i);
     }
-  cv::Mat labels, stats, centroids;
-  const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
-  std::vector<std::vector<int>> cluster_pixels(static_cast<size_t>(n));
-  for (int k = 0; k < w * h; ++k) {
-    const int l = labels.at<int>(k);
-    if (l > 0) cluster_pixels[static_cast<size_t>(l)].push_back(k);
-  }
+  // The faces: regions of the image grown over points that lie on one plane (within the sensor's
+  // noise), from seeds where the surface is flattest (PCL's region growing orders its seeds by
+  // curvature for the same reason: a seed on a ridge would grow a strip across two faces). A
+  // region's plane is refitted as it grows. Touching faces at different heights or angles part;
+  // coplanar touching faces stay one region (the rectangles found in it later).
+  const std::vector<std::vector<int>> cluster_pixels = growFaces(pts, index_of, w, h, frame.depth, o, floor);
   const Vec3 eye = T_crop_camera.translation();
   auto ray = [&](int k) {
     const int u = k % w, v = k / w;
     return Vec3(T_crop_camera.linear() * Vec3((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0));
   };
-  for (int l = 1; l < n; ++l) {
-    const std::vector<int>& px = cluster_pixels[static_cast<size_t>(l)];
+  for (const std::vector<int>& px : cluster_pixels) {
     if (static_cast<int>(px.size()) < o.min_pixels) continue;
     auto point = [&](int k) { return pts[static_cast<size_t>(index_of[static_cast<size_t>(k)])]; };
-    // The top face: the points near the cluster's highest (above the floor) surface, and the plane
-    // through them.
-    std::vector<double> heights;
-    for (int k : px) heights.push_back(floor.distance(point(k)));
-    std::vector<double> sorted = heights;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() * 9 / 10), sorted.end());
-    const double top = sorted[sorted.size() * 9 / 10];
+    // The face: the region's points (a few of an adjoining face's rim among them: the refit's
+    // band below leaves them out).
     std::vector<Vec3> top_pts;
-    for (size_t i = 0; i < px.size(); ++i)
-      if (heights[i] > top - 0.01) top_pts.push_back(point(px[i]));
-    if (top_pts.size() < 10) continue;
+    for (int k : px) top_pts.push_back(point(k));
     // The plane through them, refitted on its inliers: the highest centimetre of a cluster also
     // holds the rims of the sides the camera sees. The band is 2.5 robust sigmas of the residuals
     // (the sensor's noise, from the median absolute deviation), at least 1.5 mm.
@@ -192,95 +461,149 @@ CameraPerceptionResult detectBoxes(const Frame& frame, const std::vector<KnownSh
       const Eigen::Vector2d q = on_plane(k);
       flat.emplace_back(static_cast<float>(q.x()), static_cast<float>(q.y()));
     }
-    const cv::RotatedRect rect = cv::minAreaRect(flat);
-    const double fw = rect.size.width, fh = rect.size.height;
-    const double height = floor.distance(face.n * face.d);  // the face's height above the floor
-    // The kind and the axis standing up that fit the face's sides and height best.
-    const KnownShape* best = nullptr;
-    int up = 2;
-    double best_cost = std::numeric_limits<double>::infinity();
-    bool swap = false;
-    for (const KnownShape& sh : shapes)
-      for (int a = 0; a < 3; ++a) {
-        const int b = (a + 1) % 3, d = (a + 2) % 3;
-        for (int sw = 0; sw < 2; ++sw) {
-          const double sa = 2 * sh.half_size[sw ? d : b], sb = 2 * sh.half_size[sw ? b : d];
-          const double cost = std::abs(fw - sa) + std::abs(fh - sb) + std::abs(height - 2 * sh.half_size[a]);
-          if (cost < best_cost) best_cost = cost, best = &sh, up = a, swap = sw;
-        }
-      }
-    // Not a known box (a bin wall's top, the hand reaching in): nothing the robot should pick.
-    if (!best || best_cost > 0.02) continue;
-    const int b = (up + 1) % 3, d = (up + 2) % 3;
-    const double half_w = best->half_size[swap ? d : b], half_h = best->half_size[swap ? b : d];
-    // The outline fit: the face's boundary pixels against the known rectangle's four edges, its
-    // centre and angle by Gauss-Newton from minAreaRect's (pixel quantization averages out over
-    // the edges' many pixels, where minAreaRect's hull rests on a few).
-    // The face's mask closed (the pixels the sensor lost at the edges and the few its noise took
-    // out of the band: a pixel's place on the plane needs its ray, not its depth), then eroded by
-    // a pixel (what is left of a side's rim goes), and its boundary. The rectangle's size is
-    // fitted too, so that the erosion's inset, the same on every side, moves neither the centre
-    // nor the angle.
+    // The face's outline: its mask closed (the pixels the sensor lost at the edges and the few its
+    // noise took out of the band: a pixel's place on the plane needs its ray, not its depth), then
+    // eroded by a pixel (what is left of a side's rim goes), and its boundary.
     cv::Mat face_mask = cv::Mat::zeros(h, w, CV_8UC1), closed, eroded;
     for (int k : face_px) face_mask.data[k] = 255;
     cv::morphologyEx(face_mask, closed, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(5, 5)));
     cv::erode(closed, eroded, cv::getStructuringElement(cv::MORPH_CROSS, cv::Size(3, 3)));
+    int u0 = w, u1 = 0, v0 = h, v1 = 0;
+    for (int k : face_px) u0 = std::min(u0, k % w), u1 = std::max(u1, k % w), v0 = std::min(v0, k / w), v1 = std::max(v1, k / w);
     std::vector<Eigen::Vector2d> edge;
-    for (int v = 1; v < h - 1; ++v)
-      for (int u = 1; u < w - 1; ++u) {
+    for (int v = std::max(1, v0 - 3); v < std::min(h - 1, v1 + 4); ++v)
+      for (int u = std::max(1, u0 - 3); u < std::min(w - 1, u1 + 4); ++u) {
         const int k = v * w + u;
         if (!eroded.data[k]) continue;
         if (eroded.data[k - 1] && eroded.data[k + 1] && eroded.data[k - w] && eroded.data[k + w]) continue;
         edge.push_back(on_plane(k));
       }
     if (edge.size() < 12) continue;
-    Eigen::Vector2d c(rect.center.x, rect.center.y);
-    double theta = rect.angle * M_PI / 180.0;
-    double fit_w = half_w, fit_h = half_h;
-    for (int it = 0; it < 15; ++it) {
-      Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
-      Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
-      const Eigen::Vector2d ax(std::cos(theta), std::sin(theta)), ay(-std::sin(theta), std::cos(theta));
-      for (const Eigen::Vector2d& q : edge) {
-        const Eigen::Vector2d r = q - c;
-        const double x = ax.dot(r), y = ay.dot(r);
-        // The nearer of the two edges across the point's side: the x edges or the y edges.
-        const bool x_edge = std::abs(std::abs(x) - fit_w) < std::abs(std::abs(y) - fit_h);
-        const Eigen::Vector2d nrm = x_edge ? (x >= 0 ? ax : Eigen::Vector2d(-ax)) : (y >= 0 ? ay : Eigen::Vector2d(-ay));
-        const double res_k = nrm.dot(r) - (x_edge ? fit_w : fit_h);
-        const double wgt = std::abs(res_k) < 0.003 ? 1.0 : 0.003 / std::abs(res_k);
-        // d/dc = -n; d/dtheta = (dn/dtheta) . r, dn/dtheta = n rotated by +90 degrees; d/dsize = -1.
-        const Eigen::Vector2d dn(-nrm.y(), nrm.x());
-        Eigen::Matrix<double, 5, 1> J;
-        J << -nrm.x(), -nrm.y(), dn.dot(r), x_edge ? -1.0 : 0.0, x_edge ? 0.0 : -1.0;
-        H += wgt * J * J.transpose();
-        g += wgt * J * res_k;
+    // A rectangle found on the face becomes a box behind it, if the box rests on something.
+    auto emit = [&](const FaceRect& fr) {
+      const int up = fr.up, b = (up + 1) % 3, d = (up + 2) % 3;
+      const Vec3 side_w = std::cos(fr.theta) * e1 + std::sin(fr.theta) * e2;
+      Mat3 R_crop;
+      R_crop.col(up) = face.n;
+      R_crop.col(fr.swap ? d : b) = side_w;
+      R_crop.col(fr.swap ? b : d) = face.n.cross(side_w);
+      if (R_crop.determinant() < 0) R_crop.col(fr.swap ? b : d) *= -1;
+      const Vec3 centre2 = fr.c.x() * e1 + fr.c.y() * e2;
+      const Vec3 on_face = centre2 + face.n * (face.d - face.n.dot(centre2));
+      const KnownShape& sh = *fr.shape;
+      const Pose T_crop_box = makePose(on_face - face.n * sh.half_size[up], R_crop);
+      double lowest = 1;
+      for (int c = 0; c < 8; ++c) {
+        const Vec3 v((c & 1 ? 1 : -1) * sh.half_size.x(), (c & 2 ? 1 : -1) * sh.half_size.y(), (c & 4 ? 1 : -1) * sh.half_size.z());
+        lowest = std::min(lowest, floor.distance(T_crop_box * v));
       }
-      const Eigen::Matrix<double, 5, 1> step = H.ldlt().solve(-g);
-      if (!step.allFinite()) break;
-      c += step.head<2>();
-      theta += step(2);
-      fit_w += step(3);
-      fit_h += step(4);
-      if (step.norm() < 1e-8) break;
+      if (lowest < -0.01) return;
+      CameraDetection det;
+      det.pixels = static_cast<int>(px.size());
+      det.face_pixels = fr.pixels;
+      det.object.seen = fr.seen;
+      det.object.name = sh.name;
+      det.object.half_size = sh.half_size;
+      det.object.mass = sh.mass;
+      det.object.T_world_object = o.T_world_crop * T_crop_box;
+      res.detections.push_back(det);
+    };
+    // One face of one box: the rectangle around it (minAreaRect), the kind and the axis standing up
+    // whose face sides fit it best, then the outline fit (centre, angle and size: the erosion's
+    // inset, the same on every side, moves neither the centre nor the angle).
+    const cv::RotatedRect rect = cv::minAreaRect(flat);
+    FaceRect one;
+    one.pixels = static_cast<int>(face_px.size());
+    const double cost = bestFaceKind(shapes, rect.size.width, rect.size.height, &one);
+    if (one.shape && cost <= 0.006) {
+      one.c = Eigen::Vector2d(rect.center.x, rect.center.y);
+      one.theta = rect.angle * M_PI / 180.0;
+      fitOutline(edge, one, true);
+      emit(one);
+      continue;
     }
-    // The box frame: `up` along the face normal, the fitted rectangle's sides along the other two.
-    const Vec3 side_w = std::cos(theta) * e1 + std::sin(theta) * e2;
-    Mat3 R_crop;
-    R_crop.col(up) = face.n;
-    R_crop.col(swap ? d : b) = side_w;
-    R_crop.col(swap ? b : d) = face.n.cross(side_w);
-    if (R_crop.determinant() < 0) R_crop.col(swap ? b : d) *= -1;
-    const Vec3 centre2 = c.x() * e1 + c.y() * e2;
-    const Vec3 on_face = centre2 + face.n * (face.d - face.n.dot(centre2));
-    CameraDetection det;
-    det.pixels = static_cast<int>(px.size());
-    det.face_pixels = static_cast<int>(face_px.size());
-    det.object.name = best->name;
-    det.object.half_size = best->half_size;
-    det.object.mass = best->mass;
-    det.object.T_world_object = o.T_world_crop * makePose(on_face - face.n * best->half_size[up], R_crop);
-    res.detections.push_back(det);
+    // Several boxes' faces side by side in one plane (touching cubes, as dropped): rectangles of
+    // the catalogue's face sizes laid along the outline's straight edges, the best covered first.
+    // A face partly hidden (under a leaning box) is one of them: covered at least half where the
+    // rest is hidden, not seen through. What the camera sees at a point of the face's plane: 0 a
+    // surface at its depth, 1 something nearer, 2 something farther (past the face), 3 nothing (a
+    // lost pixel, outside the image).
+    auto seen = [&](const Eigen::Vector2d& q) {
+      const Vec3 on = q.x() * e1 + q.y() * e2;
+      const Vec3 p_crop = on + face.n * (face.d - face.n.dot(on));
+      const Vec3 pc = T_crop_camera.inverse() * p_crop;
+      if (pc.z() <= 0) return 0;
+      const int u = static_cast<int>(std::lround(cam.fx * pc.x() / pc.z() + cam.cx)), v = static_cast<int>(std::lround(cam.fy * pc.y() / pc.z() + cam.cy));
+      if (u < 0 || v < 0 || u >= w || v >= h) return 0;
+      const double z = frame.depth[static_cast<size_t>(v) * static_cast<size_t>(w) + static_cast<size_t>(u)];
+      const double tol = 3 * std::max(0.0005, o.depth_sigma_k * pc.z() * pc.z()) + 0.002;
+      if (z <= 0) return 3;
+      if (std::abs(z - pc.z()) <= tol) return 0;
+      return z < pc.z() ? 1 : 2;
+    };
+    for (const FaceRect& fr : packFaceRects(flat, edge, shapes, seen, 0.5)) emit(fr);
+  }
+  // One box seen by two faces (a tilted cube shows two or three): the face seen best stands for it.
+  std::stable_sort(res.detections.begin(), res.detections.end(),
+                   [](const CameraDetection& a, const CameraDetection& b) { return a.face_pixels > b.face_pixels; });
+  std::vector<CameraDetection> kept;
+  for (const CameraDetection& d : res.detections) {
+    bool same = false;
+    for (const CameraDetection& k : kept)
+      same = same || (k.object.T_world_object.translation() - d.object.T_world_object.translation()).norm() <
+                         std::min(k.object.half_size.minCoeff(), d.object.half_size.minCoeff());
+    if (!same) kept.push_back(d);
+  }
+  res.detections = std::move(kept);
+  // The points no detection explains (outside every detected box grown by 4 mm sideways and by
+  // 4 sigma of the depth noise along the axis nearest the vertical: a margin wider sideways would
+  // eat into a touching neighbour just where a finger goes down), in connected patches of at least
+  // `min_pixels`, each an upright box from the floor to its top.
+  {
+    std::vector<Pose> T_box_crop;
+    std::vector<Vec3> margin;
+    const double vertical = 4 * std::max(0.0005, o.depth_sigma_k * eye.z() * eye.z()) + 0.002;
+    for (const CameraDetection& d : res.detections) {
+      T_box_crop.push_back((o.T_world_crop.inverse() * d.object.T_world_object).inverse());
+      int up = 0;
+      for (int a = 1; a < 3; ++a)
+        if (std::abs(T_box_crop.back().linear()(a, 2)) > std::abs(T_box_crop.back().linear()(up, 2))) up = a;
+      Vec3 m = Vec3::Constant(0.004);
+      m[up] = vertical;
+      margin.push_back(m);
+    }
+    cv::Mat loose = cv::Mat::zeros(h, w, CV_8UC1);
+    for (size_t i = 0; i < pts.size(); ++i) {
+      if (floor.distance(pts[i]) <= o.plane_threshold) continue;
+      bool explained = false;
+      for (size_t b = 0; b < T_box_crop.size() && !explained; ++b) {
+        const Vec3 q = T_box_crop[b] * pts[i];
+        explained = ((q.cwiseAbs() - res.detections[b].object.half_size - margin[b]).array() < 0).all();
+      }
+      if (!explained) loose.data[pix[i]] = 255;
+    }
+    cv::morphologyEx(loose, loose, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
+    cv::Mat labels, stats, centroids;
+    const int n = cv::connectedComponentsWithStats(loose, labels, stats, centroids, 8, CV_32S);
+    std::vector<std::vector<cv::Point2f>> xy(static_cast<size_t>(n));
+    std::vector<double> top(static_cast<size_t>(n), 0.0);
+    for (size_t i = 0; i < pts.size(); ++i) {
+      const int l = labels.at<int>(pix[i]);
+      if (l <= 0 || stats.at<int>(l, cv::CC_STAT_AREA) < o.min_pixels) continue;
+      xy[static_cast<size_t>(l)].emplace_back(static_cast<float>(pts[i].x()), static_cast<float>(pts[i].y()));
+      top[static_cast<size_t>(l)] = std::max(top[static_cast<size_t>(l)], floor.distance(pts[i]));
+    }
+    for (int l = 1; l < n; ++l) {
+      if (xy[static_cast<size_t>(l)].size() < 3) continue;
+      const cv::RotatedRect r = cv::minAreaRect(xy[static_cast<size_t>(l)]);
+      Obstacle ob;
+      ob.type = Obstacle::Type::kBox;
+      ob.size = Vec3(r.size.width / 2 + 0.003, r.size.height / 2 + 0.003, top[static_cast<size_t>(l)] / 2);
+      const double floor_z = floor.d / floor.n.z();  // the floor's height under the crop frame's origin
+      ob.T_world = o.T_world_crop * makePose(Vec3(r.center.x, r.center.y, floor_z + ob.size.z()), rotZ(r.angle * M_PI / 180));
+      ob.name = "unexplained_" + std::to_string(res.unexplained.size());
+      res.unexplained.push_back(ob);
+    }
   }
   res.ok = !res.detections.empty();
   if (!res.ok) res.reason = "no object detected in the depth image";

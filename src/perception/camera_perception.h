@@ -1,15 +1,18 @@
 // Object poses from one depth image, with nothing but geometry: no colour, no simulator ids.
 //   depth -> points in the world (through the camera extrinsics the caller trusts: calibrated)
-//   -> the crop box (the bin) -> the supporting plane found by RANSAC and removed
-//   -> clusters (connected regions of the image above the plane)
-//   -> per cluster: the top face (the plane of its highest points), its pixels placed where their
-//      rays meet that plane, a rectangle fitted to them (OpenCV's minAreaRect), the catalogue kind
-//      and upright axis whose sizes fit it best
-//   -> the outline fit: the face's boundary pixels against the known rectangle's edges (a 2-D
-//      point-to-line ICP over centre and angle).
+//   -> the crop box (the bin, up to crop_height) -> the supporting plane found by RANSAC and removed
+//   -> faces: regions grown over points on one plane, within the sensor's noise, flattest seeds
+//      first (a cube on another, a tilted cube's two faces part; coplanar touching faces do not)
+//   -> per face: its pixels placed where their rays meet its plane; a face the size of a catalogue
+//      kind's gets the outline fit (the face's boundary pixels against the rectangle's edges, a 2-D
+//      point-to-line ICP over centre, angle and size); otherwise the catalogue's face rectangles
+//      are laid along the outline's straight edges and taken by coverage, where the camera does
+//      not see past them (several faces side by side, a face partly hidden)
+//   -> a box behind each rectangle; one box seen through two faces kept once
+//   -> what no detection explains: obstacles (upright boxes from the floor to the patch's top).
 // A 3-D point-to-plane ICP of all the cluster's points against the box's faces was tried instead
 // of the outline fit: under the stereo noise model it drifted by up to 3 mm along an axis that only
-// a thin visible side constrained.
+// a thin visible side constrained. Why faces: docs/design/faces-in-piles.md.
 // And the errors of an estimated pose against the truth, as BOP measures them.
 #pragma once
 #include <string>
@@ -33,13 +36,14 @@ struct CameraPerceptionOptions {
   Vec3 crop_half = Vec3::Zero();         ///< footprint half sizes (x, y) [m]
   double crop_height = 0.1;              ///< [m] above the floor
   double plane_threshold = 0.008;        ///< [m] points this close to the support plane are the plane
-  int min_pixels = 40;                   ///< a cluster needs this many
+  int min_pixels = 40;                   ///< a face needs this many
+  double depth_sigma_k = 0.0015;         ///< the sensor's depth noise as its datasheet gives it: sigma = k z^2 [1/m]
 };
 
 struct CameraDetection {
   ObjectState object;       ///< pose and size (index -1: no identity from a camera)
   int pixels = 0;           ///< the cluster's
-  int face_pixels = 0;      ///< its top face's
+  int face_pixels = 0;      ///< the face it was found by
 };
 
 struct CameraPerceptionResult {
@@ -47,6 +51,11 @@ struct CameraPerceptionResult {
   std::vector<CameraDetection> detections;
   std::string reason;
   int plane_inliers = 0;
+  /// What rises above the floor that no detection explains (an object not recognised, the part of
+  /// a pile the camera could not split): each connected patch of such points a box in the world,
+  /// upright from the floor to its highest point (what is under a seen surface is unknown, so taken
+  /// as occupied), for the planner to avoid.
+  std::vector<Obstacle> unexplained;
 };
 
 /// Detects boxes of `shapes` in `frame` (its depth; frame.camera.T_world_camera is the extrinsics

@@ -8,7 +8,8 @@ void PerceptionOptions::declare(ConfigArchive& a) {
   a.named("mode", mode,
           {{"hardcoded", PerceptionMode::kHardcoded}, {"ground_truth", PerceptionMode::kGroundTruth}, {"camera", PerceptionMode::kCamera}},
           "hardcoded: assume the object at the bin center, yaw 0; ground_truth: simulator poses; camera: boxes found in the "
-          "depth image of `camera` by geometry alone (support plane, clusters, top face, outline fit; no colour, no simulator ids)");
+          "depth image of `camera` by geometry alone (support plane, planar faces, the catalogue's face rectangles fitted to them; no "
+          "colour, no simulator ids)");
   a.value("noise_position", noise_position, {0.0, 0.05}, "m", "std of Gaussian noise on perceived x and y");
   a.value("noise_yaw", noise_yaw, {0.0, 0.5}, "rad", "std of Gaussian noise on perceived yaw");
   a.value("camera", camera, "camera mode: the scene's camera perception reads");
@@ -19,6 +20,10 @@ void PerceptionOptions::declare(ConfigArchive& a) {
   a.path("extrinsics", extrinsics,
          "camera mode: the camera's pose as `minimanip calibrate` wrote it (results/calibration/<camera>_extrinsics.yaml); "
          "simulator: the simulator's true pose");
+  a.value("crop_height", crop_height, {0.0, 2.0}, "m",
+          "what the sensor looks at rises this far above the bin floor (objects whose centre is lower count as in the bin; the "
+          "camera's points higher are left out); 0: three of the tallest of the experiment's object kinds stacked (a pile), at "
+          "least 0.1");
   a.value("edge_dropout", noise.edge_dropout, {0.0, 1.0}, "",
           "camera mode: the chance a pixel at a depth edge (its 3x3 neighbourhood spanning more than 1 cm) has no depth, as stereo matching fails there");
 }

@@ -27,7 +27,7 @@ struct PerceptionOptions {
   /// `crop_height` above the floor are seen. Unset (zero footprint): everything is seen.
   Pose T_world_crop = Pose::Identity();
   Vec3 crop_half = Vec3::Zero();
-  double crop_height = 0.1;  ///< [m]
+  double crop_height = 0;  ///< [m]; 0: three of the tallest of the experiment's kinds stacked, at least 0.1 (the campaign sets it)
   // Camera mode.
   std::string camera = "overhead_camera";
   int camera_width = 1280, camera_height = 960;  ///< [px]
