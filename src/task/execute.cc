@@ -253,6 +253,26 @@ class PlanExecution final : public Motion {
     if (truth >= 0) hold(hw, best->index, truth, best->half_size, T_tcp.inverse() * best->T_world_object, 0, best->shape, "");
   }
 
+  // A box closed on by parallel pads at a small angle to its faces (a yaw-offset grasp) turns until
+  // its faces lie on the pads: when the fingers close, or at the latest when it is let go of on
+  // the tray. The robot expects the box squared on the pads (turned about the approach axis, the
+  // TCP's z, so that its axis nearest the closing axis, the TCP's y, lies along it), so that a
+  // place puts it at the target's orientation either way.
+  static Pose squaredInHand(const Pose& T_tcp_object, ObjectShape shape) {
+    if (shape != ObjectShape::kBox) return T_tcp_object;
+    const Mat3& R = T_tcp_object.linear();
+    int a = 0;
+    for (int k = 1; k < 3; ++k)
+      if (std::abs(R(1, k)) > std::abs(R(1, a))) a = k;
+    const Vec3 axis = R.col(a);
+    if (std::abs(axis.z()) > std::sin(15.0 * M_PI / 180)) return T_tcp_object;  // not across the pads
+    const double turn = std::atan2(axis.x(), std::abs(axis.y())) * (axis.y() >= 0 ? 1.0 : -1.0);
+    if (std::abs(turn) > 20.0 * M_PI / 180) return T_tcp_object;
+    Pose squared = T_tcp_object;
+    squared.linear() = rotZ(turn) * R;
+    return squared;
+  }
+
   // The robot holds its object `object`; the simulator's bookkeeping says it is `truth`.
   void hold(Hardware& hw, int object, int truth, const Vec3& half, const Pose& T_tcp_object, int candidates_tried, ObjectShape shape,
             const std::string& grasp_type) {
@@ -263,7 +283,7 @@ class PlanExecution final : public Motion {
     auto& picks = ctx_.out.picks;
     picks.erase(std::remove_if(picks.begin(), picks.end(), [&](const PickRecord& p) { return p.object == truth && !p.at_target; }),
                 picks.end());
-    ctx_.T_tcp_held = T_tcp_object;
+    ctx_.T_tcp_held = squaredInHand(T_tcp_object, shape);
     {
       const TruthScope metric(hw, "the grasp as achieved");
       ctx_.T_tcp_held_actual = hw.tcpPose().inverse() * hw.object(truth).T_world_object;
