@@ -222,7 +222,7 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
         const auto b = Clock::now();
         applyDepthNoise(f, e.perception.noise, rng);
         const auto t_c = Clock::now();
-        found = detectBoxes(f, cell.perception.shapes, co, rng).detections.size();
+        found = detectKnownObjects(f, cell.perception.shapes, co, rng).detections.size();
         t_render += secs(a, b), t_noise += secs(b, t_c), t_detect += secs(t_c, Clock::now());
       }
       o << "  camera perception, " << pcam.width << "x" << pcam.height << " depth: render " << 1e3 * t_render / n << " ms, sensor noise "

@@ -165,10 +165,7 @@ Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& worl
   }
   for (const std::string& k : c.spawn.kinds) {
     const ObjectKind* kind = c.spawn.loaded.find(k);
-    if (e.perception.mode == PerceptionMode::kCamera && kind->shape != ObjectShape::kBox)
-      throw InputError(e.file, "objects.kinds: '" + k + "' is a " + shapeName(kind->shape) +
-                                   "; camera perception (perception.mode camera) detects boxes only");
-    c.perception.shapes.push_back({kind->name, kind->half_size, kind->mass});
+    c.perception.shapes.push_back({kind->name, kind->half_size, kind->mass, kind->shape});
   }
   c.perception.crop_half = bin_half;
   // What the sensor looks at rises to three of the tallest kind (a pile stacks them), unless given.

@@ -197,7 +197,7 @@ struct FaceRect {
 double bestFaceKind(const std::vector<KnownShape>& shapes, double fw, double fh, FaceRect* out) {
   double best_cost = std::numeric_limits<double>::infinity();
   for (const KnownShape& sh : shapes)
-    for (int a = 0; a < 3; ++a) {
+    for (int a = 0; a < 3 && sh.shape == ObjectShape::kBox; ++a) {
       const int b = (a + 1) % 3, d = (a + 2) % 3;
       for (int sw = 0; sw < 2; ++sw) {
         const double sa = 2 * sh.half_size[sw ? d : b], sb = 2 * sh.half_size[sw ? b : d];
@@ -317,7 +317,7 @@ std::vector<FaceRect> packFaceRects(const std::vector<cv::Point2f>& flat, const 
       if (len < 0.015) continue;
       const Eigen::Vector2d t = (q - p) / len;
       for (const KnownShape& sh : shapes)
-        for (int a = 0; a < 3; ++a) {
+        for (int a = 0; a < 3 && sh.shape == ObjectShape::kBox; ++a) {
           const int b = (a + 1) % 3, d = (a + 2) % 3;
           for (int sw = 0; sw < 2; ++sw) {
             const double along = 2 * sh.half_size[sw ? d : b], across = 2 * sh.half_size[sw ? b : d];
@@ -364,7 +364,7 @@ std::vector<FaceRect> packFaceRects(const std::vector<cv::Point2f>& flat, const 
 
 }  // namespace
 
-CameraPerceptionResult detectBoxes(const Frame& frame, const std::vector<KnownShape>& shapes,
+CameraPerceptionResult detectKnownObjects(const Frame& frame, const std::vector<KnownShape>& shapes,
                                    const CameraPerceptionOptions& o, Rng& rng) {
   CameraPerceptionResult res;
   const CameraModel& cam = frame.camera;
@@ -508,10 +508,67 @@ CameraPerceptionResult detectBoxes(const Frame& frame, const std::vector<KnownSh
       det.object.T_world_object = o.T_world_crop * T_crop_box;
       res.detections.push_back(det);
     };
+    const cv::RotatedRect rect = cv::minAreaRect(flat);
+    // A round face: an upright cylinder's top disc (its hull fills pi/4 of the bounding square, a
+    // rectangle's all of it), of a catalogue cylinder's radius within 5 mm. Its centre and radius
+    // fitted to the outline points (Gauss-Newton; the erosion's inset moves only the radius).
+    if (std::any_of(shapes.begin(), shapes.end(), [](const KnownShape& k) { return k.shape == ObjectShape::kCylinder; })) {
+      std::vector<cv::Point2f> hull;
+      cv::convexHull(flat, hull);
+      const double fill = cv::contourArea(hull) / std::max(1e-12, static_cast<double>(rect.size.width) * rect.size.height);
+      cv::Point2f cc;
+      float rr = 0;
+      cv::minEnclosingCircle(flat, cc, rr);
+      const KnownShape* cyl = nullptr;
+      double best_dr = 0.005;
+      for (const KnownShape& k : shapes)
+        if (k.shape == ObjectShape::kCylinder && std::abs(rr - k.half_size.x()) < best_dr) best_dr = std::abs(rr - k.half_size.x()), cyl = &k;
+      if (fill < 0.88 && cyl) {
+        Eigen::Vector2d c(cc.x, cc.y);
+        double radius = rr;
+        for (int it = 0; it < 15; ++it) {
+          Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+          Eigen::Vector3d g = Eigen::Vector3d::Zero();
+          for (const Eigen::Vector2d& q : edge) {
+            const Eigen::Vector2d dq = q - c;
+            const double dist = dq.norm();
+            if (dist < 1e-9) continue;
+            const double r = dist - radius;
+            const double wgt = std::abs(r) < 0.003 ? 1.0 : 0.003 / std::abs(r);
+            const Eigen::Vector3d J(-dq.x() / dist, -dq.y() / dist, -1.0);
+            H += wgt * J * J.transpose();
+            g += wgt * J * r;
+          }
+          const Eigen::Vector3d step = H.ldlt().solve(-g);
+          if (!step.allFinite()) break;
+          c += step.head<2>();
+          radius += step(2);
+          if (step.norm() < 1e-8) break;
+        }
+        const Vec3 centre2 = c.x() * e1 + c.y() * e2;
+        const Vec3 on_face = centre2 + face.n * (face.d - face.n.dot(centre2));
+        const Vec3 centre = on_face - face.n * cyl->half_size.z();
+        if (floor.distance(centre) - cyl->half_size.z() * face.n.dot(floor.n) > -0.01) {
+          Mat3 R_crop;
+          R_crop.col(2) = face.n;
+          R_crop.col(0) = e1;
+          R_crop.col(1) = face.n.cross(e1);
+          CameraDetection det;
+          det.pixels = static_cast<int>(px.size());
+          det.face_pixels = static_cast<int>(face_px.size());
+          det.object.name = cyl->name;
+          det.object.shape = ObjectShape::kCylinder;
+          det.object.half_size = cyl->half_size;
+          det.object.mass = cyl->mass;
+          det.object.T_world_object = o.T_world_crop * makePose(centre, R_crop);
+          res.detections.push_back(det);
+        }
+        continue;
+      }
+    }
     // One face of one box: the rectangle around it (minAreaRect), the kind and the axis standing up
     // whose face sides fit it best, then the outline fit (centre, angle and size: the erosion's
     // inset, the same on every side, moves neither the centre nor the angle).
-    const cv::RotatedRect rect = cv::minAreaRect(flat);
     FaceRect one;
     one.pixels = static_cast<int>(face_px.size());
     const double cost = bestFaceKind(shapes, rect.size.width, rect.size.height, &one);
@@ -637,10 +694,24 @@ void applyDepthNoise(Frame& f, const DepthNoise& noise, Rng& rng) {
     }
 }
 
-PoseError poseError(const Pose& est, const Pose& truth, const Vec3& half) {
+PoseError poseError(const Pose& est, const Pose& truth, const Vec3& half, ObjectShape shape) {
   PoseError e;
   e.centre = (est.translation() - truth.translation()).norm();
   e.rotation = e.mssd = std::numeric_limits<double>::infinity();
+  if (shape == ObjectShape::kCylinder) {
+    e.rotation = std::acos(std::min(1.0, std::abs(est.linear().col(2).dot(truth.linear().col(2)))));
+    std::vector<Vec3> rim;
+    for (int k = 0; k < 36; ++k)
+      for (double z : {-half.z(), half.z()}) rim.emplace_back(half.x() * std::cos(k * M_PI / 18), half.x() * std::sin(k * M_PI / 18), z);
+    for (double flip : {0.0, M_PI})
+      for (int k = 0; k < 180; ++k) {
+        const Pose sym = truth * makePose(Vec3::Zero(), Mat3(rotX(flip) * rotZ(k * M_PI / 90)));
+        double worst = 0;
+        for (const Vec3& v : rim) worst = std::max(worst, (est * v - sym * v).norm());
+        e.mssd = std::min(e.mssd, worst);
+      }
+    return e;
+  }
   for (const Mat3& S : symmetries(half)) {
     const Mat3 R = est.linear().transpose() * truth.linear() * S;
     e.rotation = std::min(e.rotation, std::acos(std::clamp((R.trace() - 1) / 2, -1.0, 1.0)));

@@ -9,6 +9,8 @@
 //      are laid along the outline's straight edges and taken by coverage, where the camera does
 //      not see past them (several faces side by side, a face partly hidden)
 //   -> a box behind each rectangle; one box seen through two faces kept once
+//   -> a round face (its hull fills about pi/4 of its bounding square) of a catalogue cylinder's
+//      radius: that cylinder standing under it, the disc's centre by a circle fit of its outline
 //   -> what no detection explains: obstacles (upright boxes from the floor to the patch's top).
 // A 3-D point-to-plane ICP of all the cluster's points against the box's faces was tried instead
 // of the outline fit: under the stereo noise model it drifted by up to 3 mm along an axis that only
@@ -24,11 +26,13 @@
 
 namespace mm {
 
-/// The box kinds that can be in the bin (full half sizes, as the catalogue gives them).
+/// The kinds that can be in the bin, as the catalogue gives them: boxes (half sizes) and cylinders
+/// (radius, radius, half height; found standing upright, by their top disc).
 struct KnownShape {
   std::string name;
   Vec3 half_size = Vec3::Zero();
   double mass = 0;
+  ObjectShape shape = ObjectShape::kBox;
 };
 
 struct CameraPerceptionOptions {
@@ -58,9 +62,9 @@ struct CameraPerceptionResult {
   std::vector<Obstacle> unexplained;
 };
 
-/// Detects boxes of `shapes` in `frame` (its depth; frame.camera.T_world_camera is the extrinsics
-/// used). `rng` draws the RANSAC samples.
-CameraPerceptionResult detectBoxes(const Frame& frame, const std::vector<KnownShape>& shapes,
+/// Detects objects of `shapes` in `frame` (its depth; frame.camera.T_world_camera is the extrinsics
+/// used): boxes by their faces, upright cylinders by their top discs. `rng` draws the RANSAC samples.
+CameraPerceptionResult detectKnownObjects(const Frame& frame, const std::vector<KnownShape>& shapes,
                                    const CameraPerceptionOptions& options, Rng& rng);
 
 /// A stereo camera's depth noise: sigma = k z^2 (k [1/m]: 0.0015 gives 1.5 mm at 1 m), and at
@@ -80,6 +84,9 @@ void applyDepthNoise(Frame& frame, const DepthNoise& noise, Rng& rng);
 struct PoseError {
   double centre = 0, rotation = 0, mssd = 0;
 };
-PoseError poseError(const Pose& estimate, const Pose& truth, const Vec3& half_size);
+/// A cylinder (half_size: radius, radius, half height) is the same turned any way about its axis
+/// and end over end: its rotation error is the angle between the axes, its MSSD taken over points
+/// of its two rims and those turns (every 2 degrees).
+PoseError poseError(const Pose& estimate, const Pose& truth, const Vec3& half_size, ObjectShape shape = ObjectShape::kBox);
 
 }  // namespace mm

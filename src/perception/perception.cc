@@ -8,8 +8,8 @@ void PerceptionOptions::declare(ConfigArchive& a) {
   a.named("mode", mode,
           {{"hardcoded", PerceptionMode::kHardcoded}, {"ground_truth", PerceptionMode::kGroundTruth}, {"camera", PerceptionMode::kCamera}},
           "hardcoded: assume the object at the bin center, yaw 0; ground_truth: simulator poses; camera: boxes found in the "
-          "depth image of `camera` by geometry alone (support plane, planar faces, the catalogue's face rectangles fitted to them; no "
-          "colour, no simulator ids)");
+          "depth image of `camera` by geometry alone (support plane, planar faces, the catalogue's box faces and upright cylinders' "
+          "discs fitted to them; no colour, no simulator ids)");
   a.value("noise_position", noise_position, {0.0, 0.05}, "m", "std of Gaussian noise on perceived x and y");
   a.value("noise_yaw", noise_yaw, {0.0, 0.5}, "rad", "std of Gaussian noise on perceived yaw");
   a.value("camera", camera, "camera mode: the scene's camera perception reads");

@@ -19,7 +19,7 @@ namespace mm {
 
 namespace {
 
-// Camera mode: the camera's depth image through detectBoxes. Every detection is what the robot
+// Camera mode: the camera's depth image through detectKnownObjects. Every detection is what the robot
 // knows, under an id of its own; a false one included (the robot finds out by trying). The
 // simulator's truth only scores it afterwards: each detection is matched to the true object
 // nearest it (within 3 cm) for its pose errors and the trial's bookkeeping (truth_of), a detection
@@ -39,7 +39,7 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
   co.crop_half = o.crop_half;
   co.crop_height = o.crop_height;
   co.depth_sigma_k = o.noise.k;  // the sensor's datasheet: the noise the experiment gives it
-  const CameraPerceptionResult r = detectBoxes(frame, o.shapes, co, ctx.rng_perception);
+  const CameraPerceptionResult r = detectKnownObjects(frame, o.shapes, co, ctx.rng_perception);
   ctx.seen_obstacles = r.unexplained;  // what the camera saw and could not explain: avoided, not hit
   for (const CameraDetection& d : r.detections) {
     ObjectState seen = d.object;
@@ -68,7 +68,7 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
       } else {
         taken[static_cast<size_t>(best)] = 1;
         const ObjectState& t = truth[static_cast<size_t>(best)];
-        const PoseError e = poseError(seen.T_world_object, t.T_world_object, t.half_size);
+        const PoseError e = poseError(seen.T_world_object, t.T_world_object, t.half_size, t.shape);
         rec.object = t.index;
         rec.centre_error = e.centre, rec.rotation_error = e.rotation, rec.mssd = e.mssd;
         ctx.truth_of[seen.index] = t.index;

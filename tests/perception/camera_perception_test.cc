@@ -70,7 +70,7 @@ struct Bin {
 TEST(CameraPerception, FindsSameColouredCubesFromDepthAlone) {
   Bin bin;
   Rng rng(7);
-  const CameraPerceptionResult r = detectBoxes(bin.frame, {{"cube_5cm", bin.cube.half_size, 0.1}}, bin.options, rng);
+  const CameraPerceptionResult r = detectKnownObjects(bin.frame, {{"cube_5cm", bin.cube.half_size, 0.1}}, bin.options, rng);
   ASSERT_TRUE(r.ok) << r.reason;
   EXPECT_EQ(r.detections.size(), 4u);
   for (const PoseError& e : bin.errors(r)) {
@@ -84,7 +84,7 @@ TEST(CameraPerception, WithStereoDepthNoiseThePosesStayWithinTwoMillimetresAndAD
   Rng noise(11);
   applyDepthNoise(bin.frame, DepthNoise{}, noise);
   Rng rng(7);
-  const CameraPerceptionResult r = detectBoxes(bin.frame, {{"cube_5cm", bin.cube.half_size, 0.1}}, bin.options, rng);
+  const CameraPerceptionResult r = detectKnownObjects(bin.frame, {{"cube_5cm", bin.cube.half_size, 0.1}}, bin.options, rng);
   ASSERT_TRUE(r.ok) << r.reason;
   EXPECT_EQ(r.detections.size(), 4u);
   double rotation = 0;
@@ -95,6 +95,62 @@ TEST(CameraPerception, WithStereoDepthNoiseThePosesStayWithinTwoMillimetresAndAD
     rotation += e.rotation / 4;
   }
   EXPECT_LT(rotation, M_PI / 180) << "mean rotation error";
+}
+
+// The mixed shapes standing upright, all one grey: boxes by their top faces (a carton on end, a
+// flat pack, a cube) and cylinders by their top discs (a bottle as wide as the cube, a can), each
+// its own kind, with the stereo noise.
+TEST(CameraPerception, FindsUprightCylindersByTheirDiscsBesideBoxes) {
+  const ObjectCatalogue cat = loadObjectCatalogue("scenes/objects.yaml");
+  std::vector<ObjectKind> kinds;
+  std::vector<KnownShape> shapes;
+  for (const char* name : {"cube_5cm", "cuboid_tall", "flat_box", "bottle", "can"}) {
+    ObjectKind k = *cat.find(name);
+    k.rgba = {0.6, 0.6, 0.6, 1};
+    k.has_rgba = true;
+    kinds.push_back(k);
+    shapes.push_back({k.name, k.half_size, k.mass, k.shape});
+  }
+  auto world = SimWorld::load("scenes/bin_large.xml", panda(), kinds);
+  world->reset(panda().home());
+  const auto [T_bin, half] = world->site("bin_region");
+  const Vec3 offsets[] = {{-0.1, 0.1, 0}, {0.1, 0.1, 0}, {-0.1, -0.1, 0}, {0.1, -0.1, 0}, {0.0, 0.0, 0}};
+  const double yaws[] = {0.4, -0.3, 1.0, 0.0, 0.0};
+  std::vector<Pose> truth;
+  for (int i = 0; i < 5; ++i) {
+    Vec3 p = T_bin * offsets[i];
+    p.z() = world->surfaceBelow(p + Vec3(0, 0, 0.3), -1) + kinds[static_cast<size_t>(i)].half_size.z();
+    truth.push_back(makePose(p, rotZ(yaws[i])));
+    world->setObjectPose(i, truth.back());
+  }
+  world->updateKinematics();
+  CameraPerceptionOptions options;
+  options.T_world_crop = T_bin;
+  options.crop_half = half;
+  options.crop_height = 0.3;
+  const CameraModel cam = renderer().camera(*world, "overhead_camera", 1280, 960, "(test)");
+  Frame frame = renderer().render(*world, cam, kDepth);
+  Rng noise(5);
+  applyDepthNoise(frame, DepthNoise{}, noise);
+  Rng rng(7);
+  const CameraPerceptionResult r = detectKnownObjects(frame, shapes, options, rng);
+  ASSERT_TRUE(r.ok) << r.reason;
+  EXPECT_EQ(r.detections.size(), 5u);
+  for (int i = 0; i < 5; ++i) {
+    const ObjectKind& k = kinds[static_cast<size_t>(i)];
+    const CameraDetection* best = nullptr;
+    for (const CameraDetection& d : r.detections)
+      if (!best || (d.object.T_world_object.translation() - truth[i].translation()).norm() <
+                       (best->object.T_world_object.translation() - truth[i].translation()).norm())
+        best = &d;
+    ASSERT_NE(best, nullptr);
+    EXPECT_EQ(best->object.name, k.name);
+    EXPECT_EQ(best->object.shape, k.shape) << k.name;
+    EXPECT_LT((best->object.T_world_object.translation() - truth[i].translation()).norm(), 0.003) << k.name;
+    EXPECT_LT(objectSymmetricAngle(best->object.T_world_object.linear(), truth[i].linear(), k.shape, k.half_size), 2 * M_PI / 180)
+        << k.name;
+  }
+  EXPECT_TRUE(r.unexplained.empty()) << r.unexplained.size() << " patches unexplained, the first " << r.unexplained[0].name;
 }
 
 TEST(CameraPerception, DepthNoiseGrowsWithDepthSquaredAndDropsEdges) {
@@ -138,6 +194,13 @@ TEST(CameraPerception, PoseErrorRespectsTheBoxSymmetries) {
   EXPECT_NEAR(e90.rotation, M_PI / 2, 1e-9);
   // ... but 180 degrees is.
   EXPECT_NEAR(poseError(T * makePose(Vec3::Zero(), rotZ(M_PI)), T, slab).rotation, 0, 1e-9);
+  // A cylinder turned about its axis, or end over end, is the same cylinder; tilted, it is not.
+  const Vec3 can(0.03, 0.03, 0.03);
+  const PoseError turned = poseError(T * makePose(Vec3::Zero(), rotZ(0.7)), T, can, ObjectShape::kCylinder);
+  EXPECT_NEAR(turned.rotation, 0, 1e-9);
+  EXPECT_LT(turned.mssd, 0.03 * (M_PI / 90));  // the 2-degree sampling of the turns
+  EXPECT_NEAR(poseError(T * makePose(Vec3::Zero(), rotX(M_PI)), T, can, ObjectShape::kCylinder).mssd, 0, 1e-9);
+  EXPECT_NEAR(poseError(T * makePose(Vec3::Zero(), rotX(0.1)), T, can, ObjectShape::kCylinder).rotation, 0.1, 1e-9);
   // 10 degrees off and 2 mm aside: the angle, the distance, and MSSD = the farthest corner's shift.
   const Pose off = makePose(T.translation() + Vec3(0.002, 0, 0), T.linear() * rotZ(10 * M_PI / 180));
   const PoseError e = poseError(off, T, cube);

@@ -74,7 +74,7 @@ PileScore scorePile(SimWorld& w, uint64_t seed, uint64_t trial, bool verbose) {
   co.crop_half = half;
   co.crop_height = 0.15;  // as a campaign sets it: three cubes stacked
   Rng prng = Rng::stream(seed, trial, Purpose::kPerception);
-  const CameraPerceptionResult det = detectBoxes(frame, {{"cube_5cm", cube_half, 0.1}}, co, prng);
+  const CameraPerceptionResult det = detectKnownObjects(frame, {{"cube_5cm", cube_half, 0.1}}, co, prng);
   PileScore s;
   s.objects = static_cast<int>(r.active.size());
   s.detections = static_cast<int>(det.detections.size());
