@@ -267,7 +267,7 @@ class PlanExecution final : public Motion {
     const Vec3 axis = R.col(a);
     if (std::abs(axis.z()) > std::sin(15.0 * M_PI / 180)) return T_tcp_object;  // not across the pads
     const double turn = std::atan2(axis.x(), std::abs(axis.y())) * (axis.y() >= 0 ? 1.0 : -1.0);
-    if (std::abs(turn) > 20.0 * M_PI / 180) return T_tcp_object;
+    if (std::abs(turn) > 20.0 * M_PI / 180 || std::abs(turn) < 1e-6) return T_tcp_object;  // square already: as planned
     Pose squared = T_tcp_object;
     squared.linear() = rotZ(turn) * R;
     return squared;
