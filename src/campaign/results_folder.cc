@@ -17,6 +17,7 @@
 #include "core/folder_lock.h"
 #include "planning/planner.h"
 #include "sim/mjcf_robot.h"
+#include "sim/scene_sampler.h"
 #include "sim/sim_world.h"
 
 namespace mm {
@@ -106,7 +107,14 @@ json fingerprintOf(const Experiment& e) {
   f["gripper"] = "contents " + fileDigest(robot.gripper.file);
   f["scene"] = "contents " + fileDigest(e.scene_path);
   f["tree"] = "contents " + fileDigest(e.tree_path);
-  f["objects.catalogue"] = "contents " + fileDigest(e.spawn.catalogue);
+  {  // the catalogue and the mesh files its kinds read: a changed mesh is another campaign
+    std::string digest = "contents " + fileDigest(e.spawn.catalogue);
+    SpawnOptions spawn = e.spawn;
+    spawn.resolve(e.file);
+    for (const ObjectKind& k : spawn.loaded.kinds)
+      if (!k.mesh.empty()) digest += " " + k.name + ":" + fileDigest(k.mesh);
+    f["objects.catalogue"] = digest;
+  }
   if (e.perception.extrinsics != "simulator") f["perception.extrinsics"] = "contents " + fileDigest(e.perception.extrinsics);
   return f;
 }

@@ -165,6 +165,9 @@ Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& worl
   }
   for (const std::string& k : c.spawn.kinds) {
     const ObjectKind* kind = c.spawn.loaded.find(k);
+    if (kind->shape == ObjectShape::kMesh && e.perception.mode == PerceptionMode::kCamera)
+      throw InputError(e.file, "objects.kinds: '" + k + "' is a mesh kind, and camera perception finds the catalogue's boxes and cylinders only "
+                               "(expected perception.mode ground_truth for mesh objects)");
     c.perception.shapes.push_back({kind->name, kind->half_size, kind->mass, kind->shape});
   }
   c.perception.crop_half = bin_half;

@@ -32,9 +32,36 @@ bool lineThroughObject(const ObjectState& o, const Vec3& p_world, const Vec3& y_
   const Mat3 R = o.T_world_object.linear();
   const Vec3 p = o.T_world_object.inverse() * p_world, y = R.transpose() * y_world;
   const Vec3& h = o.half_size;
+  Vec3 in = Vec3::Zero(), out = Vec3::Zero();
+  if (o.shape == ObjectShape::kMesh && o.pieces) {
+    // Each convex piece clips the line by its planes; the fingers meet the outermost entry and exit.
+    bool hit = false;
+    for (const ConvexPiece& piece : *o.pieces) {
+      double lo = -std::numeric_limits<double>::infinity(), hi = std::numeric_limits<double>::infinity();
+      Vec3 n_lo = Vec3::Zero(), n_hi = Vec3::Zero();
+      bool miss = false;
+      for (const auto& [n, d] : piece.planes) {
+        const double ny = n.dot(y), gap = d - n.dot(p);
+        if (std::abs(ny) < 1e-12) {
+          if (gap < 0) miss = true;
+          continue;
+        }
+        const double t = gap / ny;
+        if (ny < 0 && t > lo) lo = t, n_lo = n;
+        if (ny > 0 && t < hi) hi = t, n_hi = n;
+      }
+      if (miss || !(lo < hi)) continue;
+      if (!hit || lo < t1) t1 = lo, in = n_lo;
+      if (!hit || hi > t2) t2 = hi, out = n_hi;
+      hit = true;
+    }
+    if (!hit) return false;
+    n1 = R * in;
+    n2 = R * out;
+    return true;
+  }
   t1 = -std::numeric_limits<double>::infinity();
   t2 = std::numeric_limits<double>::infinity();
-  Vec3 in = Vec3::Zero(), out = Vec3::Zero();
   // Slabs: all three axes for a box, the caps for a cylinder.
   for (int a = (o.shape == ObjectShape::kCylinder ? 2 : 0); a < 3; ++a) {
     if (std::abs(y[a]) < 1e-12) {

@@ -29,13 +29,8 @@ std::string lower(std::string s) {
 std::vector<Vec3> readStl(const std::string& path, const std::string& bytes) {
   std::vector<Vec3> v;
   const bool ascii_header = bytes.size() >= 5 && lower(bytes.substr(0, 5)) == "solid";
-  bool binary = bytes.size() >= 84;
   uint32_t n = 0;
-  if (binary) {
-    std::memcpy(&n, bytes.data() + 80, 4);
-    binary = bytes.size() == 84 + 50ull * n;
-  }
-  if (binary) {
+  if (binaryStl(bytes, n)) {
     for (uint32_t t = 0; t < n; ++t)
       for (int k = 0; k < 3; ++k) {
         float xyz[3];
@@ -74,6 +69,13 @@ std::vector<Vec3> readObj(const std::string& path, const std::string& bytes) {
 }
 
 }  // namespace
+
+bool binaryStl(const std::string& bytes, uint32_t& triangles) {
+  triangles = 0;
+  if (bytes.size() < 84) return false;
+  std::memcpy(&triangles, bytes.data() + 80, 4);
+  return bytes.size() == 84 + 50ull * triangles;
+}
 
 std::vector<Vec3> readMeshVertices(const std::string& path, const Vec3& scale) {
   std::ifstream f(path, std::ios::binary);

@@ -3,6 +3,7 @@
 // in FCL, and in the sphere cover built from it.
 #pragma once
 #include <array>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -20,6 +21,10 @@ struct ConvexHull {
 /// The vertices of an STL (binary or ASCII) or OBJ file, each scaled by `scale`. Throws InputError
 /// naming the file for an unreadable, empty or malformed one, or another format.
 std::vector<Vec3> readMeshVertices(const std::string& path, const Vec3& scale = Vec3::Ones());
+
+/// Whether `bytes` are a binary STL (80-byte header, triangle count, 50 bytes a triangle: the size
+/// its count gives; an ASCII file has another), and its triangle count.
+bool binaryStl(const std::string& bytes, uint32_t& triangles);
 
 /// The convex hull of `points` (qhull). Throws InputError naming `what` when the points span no
 /// volume (fewer than four, or all on a plane).

@@ -184,6 +184,13 @@ class MockHardware final : public HardwareBase {
       const double c = std::min(1.0, std::abs(y.dot(R.col(2))));
       return o.half_size.x() * std::sqrt(1 - c * c) + o.half_size.z() * c;
     }
+    if (o.shape == ObjectShape::kMesh && o.pieces) {  // its hull's extent along the closing line
+      const Vec3 y_local = R.transpose() * y;
+      double lo = INFINITY, hi = -INFINITY;
+      for (const ConvexPiece& piece : *o.pieces)
+        for (const Vec3& v : piece.vertices) lo = std::min(lo, v.dot(y_local)), hi = std::max(hi, v.dot(y_local));
+      return (hi - lo) / 2;
+    }
     for (int a = 0; a < 3; ++a) h += std::abs(y.dot(R.col(a))) * o.half_size[a];
     return h;
   }

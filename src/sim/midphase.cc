@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <mutex>
 
 namespace mm {
@@ -11,6 +12,7 @@ namespace mm {
 namespace {
 
 mjfCollision g_narrow[mjNGEOMTYPES][mjNGEOMTYPES] = {};
+mjfCollision g_plane_mesh = nullptr;  // MuJoCo's own plane-mesh collider
 thread_local bool t_on = false;
 
 // Distance from point p to the box g (its centre, rotation and half-sizes), 0 inside.
@@ -79,6 +81,79 @@ int midphase(const mjModel* m, const mjData* d, mjContact* con, int g1, int g2, 
   return g_narrow[t1][t2](m, d, con, g1, g2, margin);
 }
 
+// A free body's mesh (an object from a mesh file) on a plane: up to four contacts spread over the
+// hull's vertices within the margin — the deepest, the one farthest from it, the farthest from
+// that line on each side. MuJoCo 2.2's plane-convex collider gives at most three, the support
+// vertex and two of its hull neighbours: on a flat face of more than three vertices (a hexagon, a
+// rectangle) they span only part of it, the centre of mass can fall outside, and the solid rocks
+// on its face (measured: a hexagonal prism resting 0.72 mm deep, chattering at 7 mm/s).
+int planeMesh(const mjModel* m, const mjData* d, mjContact* con, int g1, int g2, mjtNum margin) {
+  const int mesh = m->geom_dataid[g2];
+  const mjtNum* R1 = d->geom_xmat + 9 * g1;
+  const mjtNum n[3] = {R1[2], R1[5], R1[8]};
+  const mjtNum* p1 = d->geom_xpos + 3 * g1;
+  const mjtNum* p2 = d->geom_xpos + 3 * g2;
+  const mjtNum* R2 = d->geom_xmat + 9 * g2;
+  const float* vert = m->mesh_vert + 3 * m->mesh_vertadr[mesh];
+  struct Point {
+    mjtNum p[3], dist;
+  };
+  Point pts[4];
+  int count = 0;
+  auto world = [&](int i, Point& q) {
+    const mjtNum v[3] = {vert[3 * i], vert[3 * i + 1], vert[3 * i + 2]};
+    for (int k = 0; k < 3; ++k) q.p[k] = p2[k] + R2[3 * k] * v[0] + R2[3 * k + 1] * v[1] + R2[3 * k + 2] * v[2];
+    q.dist = n[0] * (q.p[0] - p1[0]) + n[1] * (q.p[1] - p1[1]) + n[2] * (q.p[2] - p1[2]);
+  };
+  // Each pick maximises a score over the vertices within the margin (strictly better only: ties go
+  // to the lower index, so the contacts do not depend on anything but the state).
+  auto pick = [&](const std::function<mjtNum(const Point&)>& score) {
+    Point best{}, q{};
+    mjtNum best_score = 0;
+    bool found = false;
+    for (int i = 0; i < m->mesh_vertnum[mesh]; ++i) {
+      world(i, q);
+      if (q.dist > margin) continue;
+      const mjtNum s = score(q);
+      if (!found || s > best_score) best = q, best_score = s, found = true;
+    }
+    if (found) pts[count++] = best;
+    return found ? best_score : mjtNum(-1);
+  };
+  auto d3 = [](const mjtNum* a, const mjtNum* b) {
+    return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+  };
+  pick([](const Point& q) { return -q.dist; });
+  if (count == 0) return 0;
+  const mjtNum eps = 1e-3 * m->geom_rbound[g2];
+  if (pick([&](const Point& q) { return d3(q.p, pts[0].p); }) < eps) {
+    count = 1;
+  } else {
+    // Signed distance from the line a-b, in the plane: (b - a) x (q - a) . n.
+    const Point a = pts[0], b = pts[1];
+    auto side = [&](const Point& q) {
+      const mjtNum u[3] = {b.p[0] - a.p[0], b.p[1] - a.p[1], b.p[2] - a.p[2]}, w[3] = {q.p[0] - a.p[0], q.p[1] - a.p[1], q.p[2] - a.p[2]};
+      return n[0] * (u[1] * w[2] - u[2] * w[1]) + n[1] * (u[2] * w[0] - u[0] * w[2]) + n[2] * (u[0] * w[1] - u[1] * w[0]);
+    };
+    if (pick(side) < eps * d3(a.p, b.p)) --count;
+    if (pick([&](const Point& q) { return -side(q); }) < eps * d3(a.p, b.p)) --count;
+  }
+  for (int c = 0; c < count; ++c) {
+    con[c].dist = pts[c].dist;
+    for (int k = 0; k < 3; ++k) con[c].pos[k] = pts[c].p[k] - 0.5 * pts[c].dist * n[k], con[c].frame[k] = n[k];
+    for (int k = 3; k < 9; ++k) con[c].frame[k] = 0;
+  }
+  return count;
+}
+
+// MuJoCo 2.2's plane-convex collider, or ours for an object's mesh (a mesh on a free body).
+int planeConvex(const mjModel* m, const mjData* d, mjContact* con, int g1, int g2, mjtNum margin) {
+  const int b = m->geom_bodyid[g2];
+  if (m->geom_type[g2] == mjGEOM_MESH && m->geom_dataid[g2] >= 0 && m->body_jntnum[b] == 1 && m->jnt_type[m->body_jntadr[b]] == mjJNT_FREE)
+    return planeMesh(m, d, con, g1, g2, margin);
+  return g_plane_mesh(m, d, con, g1, g2, margin);
+}
+
 }  // namespace
 
 void installMidphase() {
@@ -87,6 +162,7 @@ void installMidphase() {
     for (int i = 0; i < mjNGEOMTYPES; ++i)
       for (int j = 0; j < mjNGEOMTYPES; ++j) {
         g_narrow[i][j] = mjCOLLISIONFUNC[i][j];
+        if (i == mjGEOM_PLANE && j == mjGEOM_MESH && g_narrow[i][j]) g_plane_mesh = g_narrow[i][j], g_narrow[i][j] = planeConvex;
         if (g_narrow[i][j] && (i == mjGEOM_BOX || j == mjGEOM_BOX || i == mjGEOM_PLANE)) mjCOLLISIONFUNC[i][j] = midphase;
       }
   });

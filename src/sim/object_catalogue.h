@@ -4,6 +4,7 @@
 // simulated.
 #pragma once
 #include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -11,7 +12,18 @@
 
 namespace mm {
 
-/// One kind of object: a rigid box or cylinder (along its z) on a free joint.
+/// A mesh kind's solid, in the object's frame (the file's axes, its origin moved to the centre of
+/// the collision hull's bounding box): what MuJoCo is given for it.
+struct ObjectSolid {
+  std::shared_ptr<const std::vector<ConvexPiece>> pieces;  ///< collision: convex pieces (capped hulls)
+  std::vector<Vec3> visual_vertices;                       ///< the visual mesh, as the file gives it
+  std::vector<std::array<int, 3>> visual_faces;
+  double volume = 0;                                       ///< [m^3] the file's solid
+  Vec3 com = Vec3::Zero();                                 ///< [m] centre of mass (uniform density)
+  Mat3 inertia = Mat3::Zero();                             ///< [kg m^2] about the centre of mass, for the kind's mass
+};
+
+/// One kind of object: a rigid box, cylinder (along its z) or mesh solid on a free joint.
 struct ObjectKind {
   std::string name;
   ObjectShape shape = ObjectShape::kBox;
@@ -21,6 +33,9 @@ struct ObjectKind {
   int condim = 4;                                         ///< MuJoCo's contact dimensionality (1, 3, 4 or 6)
   std::array<double, 4> rgba{0.8, 0.8, 0.8, 1};           ///< the kind's colour, or the palette's by object
   bool has_rgba = false;                                  ///< the file gave the kind a colour
+  std::string mesh;                                       ///< mesh kinds: the OBJ or STL file (its path)
+  Vec3 scale = Vec3::Ones();                              ///< mesh kinds: the file's units to metres, per axis
+  std::shared_ptr<const ObjectSolid> solid;               ///< mesh kinds: the solid read from the file
 };
 
 struct ObjectCatalogue {

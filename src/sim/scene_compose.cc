@@ -233,6 +233,16 @@ std::string composeScene(const std::string& scene_xml, const RobotSpec& robot, c
   for (XMLElement* c = world->FirstChildElement("body"); c && !obstacle; c = c->NextSiblingElement("body"))
     if (c->Attribute("name") && std::strncmp(c->Attribute("name"), "obstacle_", 9) == 0) obstacle = c;
   char buf[200];
+  XMLElement* asset = root->LastChildElement("asset");
+  auto numbers = [](const std::vector<Vec3>& points) {
+    std::string out;
+    char v[100];
+    for (const Vec3& p : points) {
+      std::snprintf(v, sizeof v, "%.9g %.9g %.9g ", p.x(), p.y(), p.z());
+      out += v;
+    }
+    return out;
+  };
   for (size_t k = 0; k < objects.size(); ++k) {
     const ObjectKind& o = objects[k];
     const std::string name = "object_" + std::to_string(k);
@@ -246,17 +256,55 @@ std::string composeScene(const std::string& scene_xml, const RobotSpec& robot, c
     XMLElement* geom = scene.NewElement("geom");
     geom->SetAttribute("name", name.c_str());
     geom->SetAttribute("type", shapeName(o.shape));
-    if (o.shape == ObjectShape::kCylinder) std::snprintf(buf, sizeof buf, "%.12g %.12g", o.half_size.x(), o.half_size.z());
-    else std::snprintf(buf, sizeof buf, "%.12g %.12g %.12g", o.half_size.x(), o.half_size.y(), o.half_size.z());
-    geom->SetAttribute("size", buf);
-    std::snprintf(buf, sizeof buf, "%.12g", o.mass);
-    geom->SetAttribute("mass", buf);
+    if (o.shape == ObjectShape::kMesh) {
+      // A mesh object: its mass properties given (MuJoCo 2.2's own for meshes are unreliable), the
+      // collision hull as the object's geom (group 3: not drawn), the file's mesh drawn (no contacts).
+      const ObjectSolid& solid = *o.solid;
+      XMLElement* inertial = scene.NewElement("inertial");
+      std::snprintf(buf, sizeof buf, "%.12g %.12g %.12g", solid.com.x(), solid.com.y(), solid.com.z());
+      inertial->SetAttribute("pos", buf);
+      std::snprintf(buf, sizeof buf, "%.12g", o.mass);
+      inertial->SetAttribute("mass", buf);
+      const Mat3& J = solid.inertia;
+      std::snprintf(buf, sizeof buf, "%.12g %.12g %.12g %.12g %.12g %.12g", J(0, 0), J(1, 1), J(2, 2), J(0, 1), J(0, 2), J(1, 2));
+      inertial->SetAttribute("fullinertia", buf);
+      body->InsertEndChild(inertial);
+      if (!asset) asset = root->InsertEndChild(scene.NewElement("asset"))->ToElement();
+      XMLElement* hull = asset->InsertEndChild(scene.NewElement("mesh"))->ToElement();
+      hull->SetAttribute("name", (name + "_hull").c_str());
+      hull->SetAttribute("vertex", numbers(solid.pieces->front().vertices).c_str());
+      XMLElement* visual = asset->InsertEndChild(scene.NewElement("mesh"))->ToElement();
+      visual->SetAttribute("name", (name + "_visual").c_str());
+      visual->SetAttribute("vertex", numbers(solid.visual_vertices).c_str());
+      std::string faces;
+      for (const auto& f : solid.visual_faces) faces += std::to_string(f[0]) + " " + std::to_string(f[1]) + " " + std::to_string(f[2]) + " ";
+      visual->SetAttribute("face", faces.c_str());
+      geom->SetAttribute("mesh", (name + "_hull").c_str());
+      geom->SetAttribute("group", 3);
+    } else {
+      if (o.shape == ObjectShape::kCylinder) std::snprintf(buf, sizeof buf, "%.12g %.12g", o.half_size.x(), o.half_size.z());
+      else std::snprintf(buf, sizeof buf, "%.12g %.12g %.12g", o.half_size.x(), o.half_size.y(), o.half_size.z());
+      geom->SetAttribute("size", buf);
+      std::snprintf(buf, sizeof buf, "%.12g", o.mass);
+      geom->SetAttribute("mass", buf);
+    }
     geom->SetAttribute("condim", o.condim);
     std::snprintf(buf, sizeof buf, "%.12g %.12g %.12g", o.friction[0], o.friction[1], o.friction[2]);
     geom->SetAttribute("friction", buf);
     std::snprintf(buf, sizeof buf, "%.6g %.6g %.6g %.6g", o.rgba[0], o.rgba[1], o.rgba[2], o.rgba[3]);
     geom->SetAttribute("rgba", buf);
     body->InsertEndChild(geom);
+    if (o.shape == ObjectShape::kMesh) {
+      XMLElement* visual = scene.NewElement("geom");
+      visual->SetAttribute("name", (name + "_visual").c_str());
+      visual->SetAttribute("type", "mesh");
+      visual->SetAttribute("mesh", (name + "_visual").c_str());
+      visual->SetAttribute("contype", 0);
+      visual->SetAttribute("conaffinity", 0);
+      visual->SetAttribute("group", 1);
+      visual->SetAttribute("rgba", buf);
+      body->InsertEndChild(visual);
+    }
     if (!obstacle) world->InsertEndChild(body);
     else if (XMLNode* prev = obstacle->PreviousSibling()) world->InsertAfterChild(prev, body);
     else world->InsertFirstChild(body);

@@ -25,6 +25,11 @@ std::string objectsKey(const std::vector<ObjectKind>& objects) {
                   o.half_size.x(), o.half_size.y(), o.half_size.z(), o.mass, o.friction[0], o.friction[1], o.friction[2],
                   o.condim, o.rgba[0], o.rgba[1], o.rgba[2], o.rgba[3]);
     key += buf;
+    if (o.shape == ObjectShape::kMesh) {
+      std::snprintf(buf, sizeof buf, "%.17g %.17g %.17g|%zu|%.17g;", o.scale.x(), o.scale.y(), o.scale.z(), o.solid->pieces->front().vertices.size(),
+                    o.solid->volume);
+      key += o.mesh + "|" + buf;
+    }
   }
   return key;
 }
@@ -202,9 +207,14 @@ std::unique_ptr<SimWorld::Impl> SimWorld::compile(const Shared& S, const std::ve
     const std::string name = "object_" + std::to_string(k);
     const int b = mj_name2id(m, mjOBJ_BODY, name.c_str());
     if (b < 0) break;
-    if (m->body_jntnum[b] != 1 || m->jnt_type[m->body_jntadr[b]] != mjJNT_FREE || m->body_geomnum[b] != 1 ||
-        (m->geom_type[m->body_geomadr[b]] != mjGEOM_BOX && m->geom_type[m->body_geomadr[b]] != mjGEOM_CYLINDER))
-      throw InputError(scene_xml, "object body '" + name + "' must have one free joint and one box or cylinder geom");
+    // One geom that collides (a box, cylinder or mesh hull), first; any others only drawn.
+    bool drawn_only = true;
+    for (int g = m->body_geomadr[b] + 1; g < m->body_geomadr[b] + m->body_geomnum[b]; ++g)
+      drawn_only = drawn_only && m->geom_contype[g] == 0 && m->geom_conaffinity[g] == 0;
+    const int t = m->body_geomnum[b] > 0 ? m->geom_type[m->body_geomadr[b]] : -1;
+    if (m->body_jntnum[b] != 1 || m->jnt_type[m->body_jntadr[b]] != mjJNT_FREE || m->body_geomnum[b] < 1 || !drawn_only ||
+        (t != mjGEOM_BOX && t != mjGEOM_CYLINDER && t != mjGEOM_MESH))
+      throw InputError(scene_xml, "object body '" + name + "' must have one free joint and one box, cylinder or mesh geom");
     I.obj_body.push_back(b);
     I.obj_qpos.push_back(m->jnt_qposadr[m->body_jntadr[b]]);
     I.obj_dof.push_back(m->jnt_dofadr[m->body_jntadr[b]]);
@@ -218,8 +228,9 @@ std::unique_ptr<SimWorld::Impl> SimWorld::compile(const Shared& S, const std::ve
   const int park = mj_name2id(m, mjOBJ_SITE, "object_park");
   const Pose T_park = park >= 0 ? poseOf(I.d->site_xpos + 3 * park, I.d->site_xmat + 9 * park) : makePose(Vec3(0, 0, -100), Mat3::Identity());
   for (size_t k = 0; k < I.obj_body.size(); ++k) {
-    const int g = I.obj_geom[k];
-    const double hz = m->geom_size[3 * g + (m->geom_type[g] == mjGEOM_CYLINDER ? 1 : 2)];
+    const double hz = objects[k].half_size.z();
+    I.obj_pieces.push_back(objects[k].shape == ObjectShape::kMesh ? objects[k].solid->pieces : nullptr);
+    I.obj_half.push_back(objects[k].half_size);
     I.obj_park.push_back(T_park * makePose(Vec3(0.1 * static_cast<double>(k % 5), 0.1 * static_cast<double>(k / 5), hz + 0.001), Mat3::Identity()));
   }
   for (int k = 0;; ++k) {
@@ -248,7 +259,9 @@ std::unique_ptr<SimWorld::Impl> SimWorld::compile(const Shared& S, const std::ve
       I.static_geom[g] = m->geom_type[g] != mjGEOM_PLANE;  // the floor is out of reach
   }
   I.geom_object.assign(m->ngeom, -1);
-  for (size_t i = 0; i < I.obj_geom.size(); ++i) I.geom_object[I.obj_geom[i]] = static_cast<int>(i);
+  for (size_t i = 0; i < I.obj_body.size(); ++i)  // its collision geom and any drawn ones
+    for (int g = m->body_geomadr[I.obj_body[i]]; g < m->body_geomadr[I.obj_body[i]] + m->body_geomnum[I.obj_body[i]]; ++g)
+      I.geom_object[g] = static_cast<int>(i);
   I.initSleep();
   I.geom_label.assign(m->ngeom, kSegmentScene);
   for (int g = 0; g < m->ngeom; ++g) {

@@ -161,7 +161,11 @@ ObjectState SimWorld::object(int i) const {
   const mjtNum* q = I.d->qpos + I.obj_qpos[i];
   o.T_world_object = makePose(Vec3(q[0], q[1], q[2]), Quat(q[3], q[4], q[5], q[6]));
   const mjtNum* s = I.m->geom_size + 3 * I.obj_geom[i];
-  if (I.m->geom_type[I.obj_geom[i]] == mjGEOM_CYLINDER) {
+  if (I.obj_pieces[static_cast<size_t>(i)]) {
+    o.shape = ObjectShape::kMesh;
+    o.half_size = I.obj_half[static_cast<size_t>(i)];
+    o.pieces = I.obj_pieces[static_cast<size_t>(i)];
+  } else if (I.m->geom_type[I.obj_geom[i]] == mjGEOM_CYLINDER) {
     o.shape = ObjectShape::kCylinder;
     o.half_size = Vec3(s[0], s[0], s[1]);
   } else {

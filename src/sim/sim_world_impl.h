@@ -34,6 +34,8 @@ struct SimWorld::Impl {
   int tcp_site = -1;
   std::vector<int> obj_body, obj_qpos, obj_dof, obj_geom, obj_weld;
   std::vector<Pose> obj_park;
+  std::vector<std::shared_ptr<const std::vector<ConvexPiece>>> obj_pieces;  ///< a mesh object's convex pieces, else null
+  std::vector<Vec3> obj_half;  ///< a mesh object's bounding box (half sizes) in its frame
   std::vector<int> obstacle_body, obstacle_mocap, obstacle_geom;
   std::vector<char> obstacle_placed;
   std::vector<char> robot_geom, static_geom, foreign_geom;

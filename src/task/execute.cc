@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "grasp/grasp.h"
 #include "planning/blend.h"
 #include "planning/chomp.h"
 #include "planning/time_parameterization.h"
@@ -220,7 +221,7 @@ class PlanExecution final : public Motion {
     const int truth = objectInFingers(hw, ctx_.truthIndex(plan_.object));
     if (truth < 0) return;
     hold(hw, plan_.object, truth, plan_.object_half, plan_.T_tcp_object, plan_.grasp_candidates_tried, plan_.object_shape,
-         plan_.grasp_type);
+         plan_.grasp_type, plan_.object_pieces);
   }
 
   // The simulator's bookkeeping of what the fingers closed on (for the records, the weld and the
@@ -250,7 +251,7 @@ class PlanExecution final : public Motion {
     }
     if (!best) return;
     const int truth = objectInFingers(hw, ctx_.truthIndex(best->index));
-    if (truth >= 0) hold(hw, best->index, truth, best->half_size, T_tcp.inverse() * best->T_world_object, 0, best->shape, "");
+    if (truth >= 0) hold(hw, best->index, truth, best->half_size, T_tcp.inverse() * best->T_world_object, 0, best->shape, "", best->pieces);
   }
 
   // A box closed on by parallel pads at a small angle to its faces (a yaw-offset grasp) turns until
@@ -258,7 +259,26 @@ class PlanExecution final : public Motion {
   // the tray. The robot expects the box squared on the pads (turned about the approach axis, the
   // TCP's z, so that its axis nearest the closing axis, the TCP's y, lies along it), so that a
   // place puts it at the target's orientation either way.
-  static Pose squaredInHand(const Pose& T_tcp_object, ObjectShape shape) {
+  // A mesh solid likewise when the pads close on two parallel faces of it (the closing line's
+  // contact normals opposite): it turns until those faces lie on the pads.
+  static Pose squaredInHand(const Pose& T_tcp_object, ObjectShape shape, const std::shared_ptr<const std::vector<ConvexPiece>>& pieces) {
+    if (shape == ObjectShape::kMesh && pieces) {
+      ObjectState o;
+      o.shape = shape;
+      o.pieces = pieces;
+      o.T_world_object = T_tcp_object;  // in the TCP's frame: the fingers close along y through its origin
+      double t1, t2;
+      Vec3 n1, n2;
+      if (!lineThroughObject(o, Vec3::Zero(), Vec3::UnitY(), t1, t2, n1, n2) || n1.dot(n2) > -std::cos(3.0 * M_PI / 180) ||
+          std::abs(n2.z()) > std::sin(15.0 * M_PI / 180))
+        return T_tcp_object;
+      const double turn = wrapAngle(M_PI / 2 - std::atan2(n2.y(), n2.x()));
+      if (std::abs(turn) > 20.0 * M_PI / 180 || std::abs(turn) < 1e-6) return T_tcp_object;
+      Pose squared = T_tcp_object;
+      squared.linear() = rotZ(turn) * T_tcp_object.linear();
+      squared.translation() = rotZ(turn) * T_tcp_object.translation();
+      return squared;
+    }
     if (shape != ObjectShape::kBox) return T_tcp_object;
     const Mat3& R = T_tcp_object.linear();
     int a = 0;
@@ -275,7 +295,7 @@ class PlanExecution final : public Motion {
 
   // The robot holds its object `object`; the simulator's bookkeeping says it is `truth`.
   void hold(Hardware& hw, int object, int truth, const Vec3& half, const Pose& T_tcp_object, int candidates_tried, ObjectShape shape,
-            const std::string& grasp_type) {
+            const std::string& grasp_type, std::shared_ptr<const std::vector<ConvexPiece>> pieces) {
     ctx_.held = object;
     ctx_.held_truth = truth;
     if (std::find(ctx_.picked.begin(), ctx_.picked.end(), object) == ctx_.picked.end()) ctx_.picked.push_back(object);
@@ -283,7 +303,7 @@ class PlanExecution final : public Motion {
     auto& picks = ctx_.out.picks;
     picks.erase(std::remove_if(picks.begin(), picks.end(), [&](const PickRecord& p) { return p.object == truth && !p.at_target; }),
                 picks.end());
-    ctx_.T_tcp_held = squaredInHand(T_tcp_object, shape);
+    ctx_.T_tcp_held = squaredInHand(T_tcp_object, shape, pieces);
     {
       const TruthScope metric(hw, "the grasp as achieved");
       ctx_.T_tcp_held_actual = hw.tcpPose().inverse() * hw.object(truth).T_world_object;
@@ -299,6 +319,7 @@ class PlanExecution final : public Motion {
     r.grasp_deviation = (ctx_.T_tcp_held_actual.translation() - T_tcp_object.translation()).norm();
     r.grasp_deviation_angle = objectSymmetricAngle(ctx_.T_tcp_held_actual.linear(), T_tcp_object.linear(), shape, half);
     ctx_.held_shape = shape;
+    ctx_.held_pieces = std::move(pieces);
     // Held from the side: the hand near horizontal when the fingers closed (a tilted box's grasp
     // leans at most 50 degrees).
     ctx_.held_from_side = -ctx_.robot.fk(hw.jointPositions()).linear()(2, 2) < std::cos(70.0 * M_PI / 180);

@@ -264,6 +264,7 @@ Failure planPick(TrialContext& ctx, const GraspSolution& g, Plan& out) {
   out.object = g.object.index;
   out.object_half = g.object.half_size;
   out.object_shape = g.object.shape;
+  out.object_pieces = g.object.pieces;
   out.grasp_type = graspTypeName(g.candidate.type);
   out.T_tcp_object = g.T_tcp_object;
   out.T_world_grasp = g.candidate.T_world_tcp;

@@ -43,6 +43,18 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   // height above it.
   Pose T_target = T_world_object;
   if (ctx.target_half_height >= 0) T_target.translation().z() += half.z() - ctx.target_half_height;
+  if (ctx.held_shape == ObjectShape::kMesh) {
+    // A solid with no symmetry declared is set down on the face it rested on when picked (turning
+    // it over needs a regrasp), at the target's yaw: the target is that orientation.
+    const Mat3 R_held = (ctx.robot.fk(q_lift) * ctx.T_tcp_held).linear();
+    T_target.linear() = rotZ(yawOf(T_target.linear())) * rotZ(-yawOf(R_held)) * R_held;
+    if (ctx.held_pieces && ctx.target_half_height >= 0) {  // its lowest point on the surface, not its box's
+      double low = INFINITY;
+      for (const ConvexPiece& piece : *ctx.held_pieces)
+        for (const Vec3& v : piece.vertices) low = std::min(low, (T_target.linear() * v).z());
+      T_target.translation().z() += -low - half.z();
+    }
+  }
   Pose T_obj_place = T_target;
   T_obj_place.translation().z() += o.place_clearance;
   const Pose T_tcp_now = ctx.robot.fk(q_lift);
@@ -54,6 +66,8 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   if (ctx.held_shape == ObjectShape::kCylinder) {
     for (double flip : {0.0, M_PI})
       for (int k = 0; k < 12; ++k) symmetries.push_back(Mat3(rotX(flip) * rotZ(k * M_PI / 6)));
+  } else if (ctx.held_shape == ObjectShape::kMesh) {  // no symmetry declared: as it is held (its target set above)
+    symmetries.push_back(Mat3::Identity());
   } else {
     symmetries = boxSymmetries(half);
   }

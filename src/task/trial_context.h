@@ -60,6 +60,7 @@ struct Plan {
   int object = -1;                         ///< pick: the object grasped; place: the object carried
   Vec3 object_half = Vec3::Zero();         ///< pick: its half sizes [m]
   ObjectShape object_shape = ObjectShape::kBox;  ///< pick: its shape
+  std::shared_ptr<const std::vector<ConvexPiece>> object_pieces;  ///< pick: a mesh object's convex pieces
   std::string grasp_type;                  ///< pick: "top_down" or "side"
   Pose T_tcp_object = Pose::Identity();    ///< pick: the object in the hand, as planned
   Pose T_world_grasp = Pose::Identity();   ///< pick: the TCP at the grasp
@@ -139,6 +140,7 @@ class TrialContext {
   Pose T_tcp_held = Pose::Identity();        ///< the held object in the hand as planned
   Pose T_tcp_held_actual = Pose::Identity(); ///< as measured when the fingers closed (drop check)
   ObjectShape held_shape = ObjectShape::kBox;   ///< the held object's shape
+  std::shared_ptr<const std::vector<ConvexPiece>> held_pieces;  ///< a held mesh object's convex pieces
   /// [m] the half height the place targets' centre height assumes (negative: none); an object of
   /// another height is placed that much higher or lower, so that it rests on the same surface.
   double target_half_height = -1;

@@ -168,9 +168,10 @@ TEST_F(Boundary, ADuplicateKeyAndASectionGivenAValueAreInputErrors) {
 }
 
 // A path given with --set is the working directory's, the object catalogue's too (it was taken
-// from the project root).
+// from the project root); the mesh files a catalogue names are its own directory's.
 TEST_F(Boundary, ACatalogueGivenWithSetIsFoundFromTheWorkingDirectory) {
   fs::copy_file("scenes/objects.yaml", dir_.path() / "my_objects.yaml");
+  fs::copy("scenes/meshes", dir_.path() / "meshes");
   std::string out;
   const int code = shellOut("cd '" + dir_.path().string() + "' && " + std::string(MINIMANIP_BINARY) + " run " +
                                 (fs::current_path() / "experiments/quickstart.yaml").string() +
