@@ -48,14 +48,13 @@ std::array<double, 4> readRgba(const spec_io::Reader& r, const YAML::Node& n) {
 constexpr int kDefaultHullVertices = 64;
 
 // A mesh kind's solid: every part of the file must be a closed, outward-oriented solid of a sane
-// size (MuJoCo 2.2 would load anything, and compute nonsense or crash on it); the collision is
-// the convex hull of the whole file, capped; the mass properties are the parts' (MuJoCo 2.2's own
-// mesh inertia is unreliable), at uniform density.
+// size (MuJoCo 2.2 would load anything, and compute nonsense or crash on it); it collides as the
+// capped convex hull of each part (an OBJ's groups are its convex pieces; one part: its hull); the
+// mass properties are the parts' (MuJoCo 2.2's own mesh inertia is unreliable), at uniform density.
 std::shared_ptr<const ObjectSolid> readSolid(const std::string& file, const Vec3& scale, int hull_vertices, double& mass, double density,
                                              const std::string& what) {
   const std::vector<TriangleMesh> parts = readMeshParts(file, scale);
   auto solid = std::make_shared<ObjectSolid>();
-  std::vector<Vec3> all;
   double volume = 0;
   Vec3 moment = Vec3::Zero();
   Mat3 second = Mat3::Zero();  // about the file's origin, unit density
@@ -67,11 +66,14 @@ std::shared_ptr<const ObjectSolid> readSolid(const std::string& file, const Vec3
     // Parallel axis to the file's origin: I_o = I_c + V (|c|^2 1 - c c^T).
     second += mp.inertia + mp.volume * (mp.centroid.squaredNorm() * Mat3::Identity() - mp.centroid * mp.centroid.transpose());
     const int base = static_cast<int>(solid->visual_vertices.size());
-    for (const Vec3& v : part.vertices) solid->visual_vertices.push_back(v), all.push_back(v);
+    for (const Vec3& v : part.vertices) solid->visual_vertices.push_back(v);
     for (const auto& f : part.faces) solid->visual_faces.push_back({f[0] + base, f[1] + base, f[2] + base});
   }
-  const ConvexHull hull = cappedHull(all, hull_vertices, file);
-  const Vec3 centre = (hull.lower + hull.upper) / 2;
+  std::vector<ConvexHull> hulls;
+  for (const TriangleMesh& part : parts) hulls.push_back(cappedHull(part.vertices, hull_vertices, file + (part.part.empty() ? "" : " (part '" + part.part + "')")));
+  Vec3 lower = hulls.front().lower, upper = hulls.front().upper;
+  for (const ConvexHull& h : hulls) lower = lower.cwiseMin(h.lower), upper = upper.cwiseMax(h.upper);
+  const Vec3 centre = (lower + upper) / 2;
   const Vec3 com_file = moment / volume;
   Mat3 inertia = second - volume * (com_file.squaredNorm() * Mat3::Identity() - com_file * com_file.transpose());
   if (mass <= 0) mass = density * volume;
@@ -80,15 +82,19 @@ std::shared_ptr<const ObjectSolid> readSolid(const std::string& file, const Vec3
   solid->com = com_file - centre;
   solid->inertia = inertia * (mass / volume);
   for (Vec3& v : solid->visual_vertices) v -= centre;
-  ConvexPiece piece;
-  for (const Vec3& v : hull.vertices) piece.vertices.push_back(v - centre);
-  for (const auto& f : hull.faces) {
-    const Vec3 a = piece.vertices[static_cast<size_t>(f[0])], b = piece.vertices[static_cast<size_t>(f[1])], c = piece.vertices[static_cast<size_t>(f[2])];
-    const Vec3 n = (b - a).cross(c - a);
-    if (n.norm() < 1e-15) continue;
-    piece.planes.push_back({n.normalized(), n.normalized().dot(a)});
+  std::vector<ConvexPiece> pieces;
+  for (const ConvexHull& hull : hulls) {
+    ConvexPiece piece;
+    for (const Vec3& v : hull.vertices) piece.vertices.push_back(v - centre);
+    for (const auto& f : hull.faces) {
+      const Vec3 a = piece.vertices[static_cast<size_t>(f[0])], b = piece.vertices[static_cast<size_t>(f[1])], c = piece.vertices[static_cast<size_t>(f[2])];
+      const Vec3 n = (b - a).cross(c - a);
+      if (n.norm() < 1e-15) continue;
+      piece.planes.push_back({n.normalized(), n.normalized().dot(a)});
+    }
+    pieces.push_back(std::move(piece));
   }
-  solid->pieces = std::make_shared<const std::vector<ConvexPiece>>(std::vector<ConvexPiece>{piece});
+  solid->pieces = std::make_shared<const std::vector<ConvexPiece>>(std::move(pieces));
   return solid;
 }
 
@@ -150,7 +156,8 @@ ObjectCatalogue loadObjectCatalogue(const std::string& path) {
         throw InputError(r.at(n["mesh"]), "object kind '" + k.name + "': " + e.what());
       }
       Vec3 lo = Vec3::Constant(INFINITY), hi = -lo;
-      for (const Vec3& v : k.solid->pieces->front().vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+      for (const ConvexPiece& piece : *k.solid->pieces)
+        for (const Vec3& v : piece.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
       k.half_size = (hi - lo) / 2;
     } else {
       const auto size = r.vec3(n, "size");

@@ -270,9 +270,11 @@ std::string composeScene(const std::string& scene_xml, const RobotSpec& robot, c
       inertial->SetAttribute("fullinertia", buf);
       body->InsertEndChild(inertial);
       if (!asset) asset = root->InsertEndChild(scene.NewElement("asset"))->ToElement();
-      XMLElement* hull = asset->InsertEndChild(scene.NewElement("mesh"))->ToElement();
-      hull->SetAttribute("name", (name + "_hull").c_str());
-      hull->SetAttribute("vertex", numbers(solid.pieces->front().vertices).c_str());
+      for (size_t j = 0; j < solid.pieces->size(); ++j) {
+        XMLElement* hull = asset->InsertEndChild(scene.NewElement("mesh"))->ToElement();
+        hull->SetAttribute("name", (name + "_hull" + (j ? "_" + std::to_string(j) : "")).c_str());
+        hull->SetAttribute("vertex", numbers((*solid.pieces)[j].vertices).c_str());
+      }
       XMLElement* visual = asset->InsertEndChild(scene.NewElement("mesh"))->ToElement();
       visual->SetAttribute("name", (name + "_visual").c_str());
       visual->SetAttribute("vertex", numbers(solid.visual_vertices).c_str());
@@ -294,6 +296,12 @@ std::string composeScene(const std::string& scene_xml, const RobotSpec& robot, c
     std::snprintf(buf, sizeof buf, "%.6g %.6g %.6g %.6g", o.rgba[0], o.rgba[1], o.rgba[2], o.rgba[3]);
     geom->SetAttribute("rgba", buf);
     body->InsertEndChild(geom);
+    for (size_t j = 1; o.shape == ObjectShape::kMesh && j < o.solid->pieces->size(); ++j) {  // its other convex pieces, alike
+      XMLElement* piece = geom->DeepClone(&scene)->ToElement();
+      piece->SetAttribute("name", (name + "_piece_" + std::to_string(j)).c_str());
+      piece->SetAttribute("mesh", (name + "_hull_" + std::to_string(j)).c_str());
+      body->InsertEndChild(piece);
+    }
     if (o.shape == ObjectShape::kMesh) {
       XMLElement* visual = scene.NewElement("geom");
       visual->SetAttribute("name", (name + "_visual").c_str());

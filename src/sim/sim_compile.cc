@@ -26,7 +26,9 @@ std::string objectsKey(const std::vector<ObjectKind>& objects) {
                   o.condim, o.rgba[0], o.rgba[1], o.rgba[2], o.rgba[3]);
     key += buf;
     if (o.shape == ObjectShape::kMesh) {
-      std::snprintf(buf, sizeof buf, "%.17g %.17g %.17g|%zu|%.17g;", o.scale.x(), o.scale.y(), o.scale.z(), o.solid->pieces->front().vertices.size(),
+      size_t vertices = 0;
+      for (const ConvexPiece& piece : *o.solid->pieces) vertices += piece.vertices.size();
+      std::snprintf(buf, sizeof buf, "%.17g %.17g %.17g|%zu %zu|%.17g;", o.scale.x(), o.scale.y(), o.scale.z(), o.solid->pieces->size(), vertices,
                     o.solid->volume);
       key += o.mesh + "|" + buf;
     }
@@ -207,14 +209,22 @@ std::unique_ptr<SimWorld::Impl> SimWorld::compile(const Shared& S, const std::ve
     const std::string name = "object_" + std::to_string(k);
     const int b = mj_name2id(m, mjOBJ_BODY, name.c_str());
     if (b < 0) break;
-    // One geom that collides (a box, cylinder or mesh hull), first; any others only drawn.
-    bool drawn_only = true;
-    for (int g = m->body_geomadr[b] + 1; g < m->body_geomadr[b] + m->body_geomnum[b]; ++g)
-      drawn_only = drawn_only && m->geom_contype[g] == 0 && m->geom_conaffinity[g] == 0;
+    // The geoms that collide first — one box or cylinder, or a mesh object's convex pieces —
+    // then any only drawn.
+    std::vector<int> colliders;
+    bool ordered = true;
+    for (int g = m->body_geomadr[b]; g < m->body_geomadr[b] + m->body_geomnum[b]; ++g) {
+      const bool collides = m->geom_contype[g] != 0 || m->geom_conaffinity[g] != 0;
+      if (collides && colliders.size() != static_cast<size_t>(g - m->body_geomadr[b])) ordered = false;
+      if (collides) colliders.push_back(g);
+    }
     const int t = m->body_geomnum[b] > 0 ? m->geom_type[m->body_geomadr[b]] : -1;
-    if (m->body_jntnum[b] != 1 || m->jnt_type[m->body_jntadr[b]] != mjJNT_FREE || m->body_geomnum[b] < 1 || !drawn_only ||
-        (t != mjGEOM_BOX && t != mjGEOM_CYLINDER && t != mjGEOM_MESH))
-      throw InputError(scene_xml, "object body '" + name + "' must have one free joint and one box, cylinder or mesh geom");
+    bool pieces = true;
+    for (int g : colliders) pieces = pieces && m->geom_type[g] == mjGEOM_MESH;
+    if (m->body_jntnum[b] != 1 || m->jnt_type[m->body_jntadr[b]] != mjJNT_FREE || colliders.empty() || !ordered ||
+        (t != mjGEOM_BOX && t != mjGEOM_CYLINDER && t != mjGEOM_MESH) || (colliders.size() > 1 && !pieces))
+      throw InputError(scene_xml, "object body '" + name + "' must have one free joint and one box, cylinder or mesh geom (or mesh pieces)");
+    I.obj_colliders.push_back(colliders);
     I.obj_body.push_back(b);
     I.obj_qpos.push_back(m->jnt_qposadr[m->body_jntadr[b]]);
     I.obj_dof.push_back(m->jnt_dofadr[m->body_jntadr[b]]);

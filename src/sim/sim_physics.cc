@@ -85,9 +85,11 @@ void SimWorld::Impl::initSleep() {
 
 void SimWorld::Impl::wake(size_t i) {
   if (i >= asleep.size() || !asleep[i]) return;
-  const int g = obj_geom[i], b = obj_body[i];
-  m->geom_contype[g] = saved_contype[i];
-  m->geom_conaffinity[g] = saved_conaffinity[i];
+  const int b = obj_body[i];
+  for (int g : obj_colliders[i]) {
+    m->geom_contype[g] = saved_contype[i];
+    m->geom_conaffinity[g] = saved_conaffinity[i];
+  }
   std::fill(d->xfrc_applied + 6 * b, d->xfrc_applied + 6 * b + 6, 0.0);
   asleep[i] = 0;
   still[i] = 0;
@@ -99,18 +101,21 @@ void SimWorld::Impl::wakeAll() {
 }
 
 bool SimWorld::Impl::moverNear(size_t i) const {
-  const int g = obj_geom[i];
-  const mjtNum* p = d->geom_xpos + 3 * g;
-  auto near = [&](int h) {  // bounding spheres first (cheap), then the shapes' gap bound
+  auto near = [&](int g, int h) {  // bounding spheres first (cheap), then the shapes' gap bound
+    const mjtNum* p = d->geom_xpos + 3 * g;
     const mjtNum* q = d->geom_xpos + 3 * h;
     const mjtNum dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
     const mjtNum r = m->geom_rbound[g] + m->geom_rbound[h] + kSleepGap;
     return dx * dx + dy * dy + dz * dz < r * r && geomGapLowerBound(m, d, g, h) < kSleepGap;
   };
-  for (int h : mover_geoms)
-    if (m->geom_type[h] != mjGEOM_PLANE && near(h)) return true;
-  for (size_t j = 0; j < obj_geom.size(); ++j)
-    if (j != i && moving[j] && near(obj_geom[j])) return true;
+  for (int g : obj_colliders[i]) {
+    for (int h : mover_geoms)
+      if (m->geom_type[h] != mjGEOM_PLANE && near(g, h)) return true;
+    for (size_t j = 0; j < obj_colliders.size(); ++j)
+      if (j != i && moving[j])
+        for (int h : obj_colliders[j])
+          if (near(g, h)) return true;
+  }
   return false;
 }
 
@@ -155,10 +160,10 @@ void SimWorld::Impl::updateSleep() {
 }
 
 void SimWorld::Impl::putToSleep(size_t i) {
-  const int g = obj_geom[i], b = obj_body[i];
-  saved_contype[i] = m->geom_contype[g];
-  saved_conaffinity[i] = m->geom_conaffinity[g];
-  m->geom_contype[g] = m->geom_conaffinity[g] = 0;
+  const int b = obj_body[i];
+  saved_contype[i] = m->geom_contype[obj_geom[i]];  // an object's pieces collide alike
+  saved_conaffinity[i] = m->geom_conaffinity[obj_geom[i]];
+  for (int g : obj_colliders[i]) m->geom_contype[g] = m->geom_conaffinity[g] = 0;
   std::fill(d->qvel + obj_dof[i], d->qvel + obj_dof[i] + 6, 0.0);
   for (int k = 0; k < 3; ++k) d->xfrc_applied[6 * b + k] = -m->body_mass[b] * m->opt.gravity[k];
   asleep[i] = 1;

@@ -253,7 +253,8 @@ double SimWorld::objectPenetration(int i) const {
   double worst = 0;
   for (int c = 0; c < I.d->ncon; ++c) {
     const mjContact& con = I.d->contact[c];
-    if (con.geom1 == I.obj_geom[i] || con.geom2 == I.obj_geom[i]) worst = std::max(worst, -con.dist);
+    for (int g : I.obj_colliders[i])
+      if (con.geom1 == g || con.geom2 == g) worst = std::max(worst, -con.dist);
   }
   return worst;
 }

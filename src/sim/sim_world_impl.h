@@ -32,7 +32,8 @@ struct SimWorld::Impl {
   std::vector<double> effort;
   int finger_qpos[2] = {0, 0}, finger_dof[2] = {0, 0}, finger_act[2] = {0, 0};
   int tcp_site = -1;
-  std::vector<int> obj_body, obj_qpos, obj_dof, obj_geom, obj_weld;
+  std::vector<int> obj_body, obj_qpos, obj_dof, obj_geom, obj_weld;  ///< obj_geom: its first colliding geom
+  std::vector<std::vector<int>> obj_colliders;  ///< every colliding geom of an object (a mesh object's convex pieces)
   std::vector<Pose> obj_park;
   std::vector<std::shared_ptr<const std::vector<ConvexPiece>>> obj_pieces;  ///< a mesh object's convex pieces, else null
   std::vector<Vec3> obj_half;  ///< a mesh object's bounding box (half sizes) in its frame
