@@ -119,13 +119,14 @@ TEST(MeshObjects, CollideAsTheirConvexPieces) {
   const VecX q = w->armPositions();
   for (int s = 0; s < 750; ++s) w->stepServo(q, VecX::Zero(q.size()), VecX::Zero(q.size()), 0.04, 0);
   const ObjectState cube = w->object(1), block = w->object(0);
-  // MuJoCo 2.2 collides a box with a mesh through its general convex collider, one contact point:
-  // the cube sinks in by a few millimetres (2.6 here) where a plane or a box would hold it at 0.1.
-  EXPECT_NEAR(cube.T_world_object.translation().z(), floor + 0.025 + 0.025, 0.004) << "the cube rests on the lower step";
+  // MuJoCo 2.2's own convex collider gives a box on a mesh one contact point, and the cube sank
+  // 2.6 mm in. With the contacts spread over the face they share it sits 0.7 mm low: 0.25 mm the
+  // block in the floor, the rest its soft contacts, the edge nearer its centre of mass bearing more.
+  EXPECT_NEAR(cube.T_world_object.translation().z(), floor + 0.025 + 0.025, 0.001) << "the cube rests on the lower step";
   EXPECT_NEAR(cube.T_world_object.translation().x(), centre.x() + 0.0255, 0.001) << "where it was set";
   EXPECT_GT(cube.T_world_object.linear()(2, 2), std::cos(2 * M_PI / 180)) << "flat";
   EXPECT_NEAR(block.T_world_object.translation().z(), floor + 0.025, 0.001);
-  EXPECT_LT(w->objectPenetration(1), 0.004);
+  EXPECT_LT(w->objectPenetration(1), 0.0005);
 }
 
 TEST(MeshObjects, BadMeshKindsAreExitTwoNamingTheFile) {
