@@ -112,7 +112,7 @@ json fingerprintOf(const Experiment& e) {
     SpawnOptions spawn = e.spawn;
     spawn.resolve(e.file);
     for (const ObjectKind& k : spawn.loaded.kinds)
-      if (!k.mesh.empty()) digest += " " + k.name + ":" + fileDigest(k.mesh);
+      for (const std::string& file : k.sources) digest += " " + k.name + ":" + fileDigest(file);
     f["objects.catalogue"] = digest;
   }
   if (e.perception.extrinsics != "simulator") f["perception.extrinsics"] = "contents " + fileDigest(e.perception.extrinsics);

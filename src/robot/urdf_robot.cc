@@ -96,6 +96,34 @@ std::shared_ptr<urdf::ModelInterface> parseUrdfText(const std::string& text, con
   return model;
 }
 
+std::vector<std::string> urdfSearchDirs(const std::string& urdf_path, std::vector<std::string> first) {
+  if (const char* env = std::getenv("ROS_PACKAGE_PATH")) {
+    std::stringstream ss(env);
+    for (std::string d; std::getline(ss, d, ':');)
+      if (!d.empty()) first.push_back(d);
+  }
+  // Then the URDF's folder and its ancestors: a package as published keeps its urdf/ and meshes/
+  // side by side, so package://<pkg>/meshes/... is found above the URDF, in the package's parent.
+  for (std::filesystem::path d = std::filesystem::absolute(urdf_path).lexically_normal().parent_path();; d = d.parent_path()) {
+    first.push_back(d.string());
+    if (d == d.parent_path()) break;
+  }
+  return first;
+}
+
+std::string resolveUrdfMesh(const std::string& filename, const std::string& urdf_path, const std::vector<std::string>& dirs,
+                            const std::string& where, const std::string& searched) {
+  if (filename.rfind("package://", 0) == 0) {
+    const std::string rel = filename.substr(10);
+    for (const auto& d : dirs)
+      if (std::filesystem::exists(std::filesystem::path(d) / rel)) return (std::filesystem::path(d) / rel).string();
+    throw InputError(where, "cannot resolve '" + filename + "' (looked in " + searched + ")");
+  }
+  if (filename.rfind("file://", 0) == 0) return filename.substr(7);
+  if (std::filesystem::path(filename).is_relative()) return (std::filesystem::path(urdf_path).parent_path() / filename).string();
+  return filename;
+}
+
 RobotSpec loadUrdfRobotSpec(const std::string& urdf_path, const std::string& gripper_yaml) {
   namespace fs = std::filesystem;
   std::ifstream in(urdf_path);
@@ -239,18 +267,7 @@ RobotSpec loadUrdfRobotSpec(const std::string& urdf_path, const std::string& gri
         dirs.push_back(p.is_absolute() ? p.string() : (fs::path(side).parent_path() / p).lexically_normal().string());
       }
     }
-    if (const char* env = std::getenv("ROS_PACKAGE_PATH")) {
-      std::stringstream ss(env);
-      for (std::string d; std::getline(ss, d, ':');)
-        if (!d.empty()) dirs.push_back(d);
-    }
-    // Then the URDF's folder and its ancestors: a package as published keeps its urdf/ and meshes/
-    // side by side, so package://<pkg>/meshes/... is found above the URDF, in the package's parent.
-    for (fs::path d = fs::absolute(urdf_path).lexically_normal().parent_path();; d = d.parent_path()) {
-      dirs.push_back(d.string());
-      if (d == d.parent_path()) break;
-    }
-    return dirs;
+    return urdfSearchDirs(urdf_path, dirs);
   }();
   auto shapesOf = [&](const urdf::LinkConstSharedPtr& l, const Pose& T, LinkSpec& out, arm_builder::Inertia& inertia) {
     if (l->inertial) {
@@ -293,25 +310,9 @@ RobotSpec loadUrdfRobotSpec(const std::string& urdf_path, const std::string& gri
           break;
         }
         case urdf::Geometry::MESH: {
-          std::string f = static_cast<const urdf::Mesh&>(*c->geometry).filename;
           const std::string where = urdf_path + ": link '" + l->name + "'";
-          if (f.rfind("package://", 0) == 0) {
-            const std::string rel = f.substr(10);
-            std::string found;
-            for (const auto& d : package_path)
-              if (fs::exists(fs::path(d) / rel)) {
-                found = (fs::path(d) / rel).string();
-                break;
-              }
-            if (found.empty())
-              throw InputError(where, "cannot resolve '" + f + "' (looked in package_path of " + side +
-                                          ", ROS_PACKAGE_PATH and the folders above the URDF)");
-            f = found;
-          } else if (f.rfind("file://", 0) == 0) {
-            f = f.substr(7);
-          } else if (fs::path(f).is_relative()) {
-            f = (fs::path(urdf_path).parent_path() / f).string();
-          }
+          const std::string f = resolveUrdfMesh(static_cast<const urdf::Mesh&>(*c->geometry).filename, urdf_path, package_path, where,
+                                                "package_path of " + side + ", ROS_PACKAGE_PATH and the folders above the URDF");
           std::string ext = fs::path(f).extension().string();
           for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
           if (ext == ".dae") throw InputError(where, "mesh '" + f + "' is COLLADA (.dae), which MuJoCo 2.2 cannot read (convert it to STL or OBJ)");

@@ -5,6 +5,7 @@
 
 #include "robot/mesh.h"
 #include "robot/solid_mesh.h"
+#include "robot/urdf_object.h"
 #include "robot/spec_reader.h"
 
 namespace mm {
@@ -47,41 +48,39 @@ std::array<double, 4> readRgba(const spec_io::Reader& r, const YAML::Node& n) {
 // hull cost with its vertex count).
 constexpr int kDefaultHullVertices = 64;
 
-// A mesh kind's solid: every part of the file must be a closed, outward-oriented solid of a sane
-// size (MuJoCo 2.2 would load anything, and compute nonsense or crash on it); it collides as the
-// capped convex hull of each part (an OBJ's groups are its convex pieces; one part: its hull); the
-// mass properties are the parts' (MuJoCo 2.2's own mesh inertia is unreliable), at uniform density.
-std::shared_ptr<const ObjectSolid> readSolid(const std::string& file, const Vec3& scale, int hull_vertices, double& mass, double density,
-                                             const std::string& what) {
-  const std::vector<TriangleMesh> parts = readMeshParts(file, scale);
-  auto solid = std::make_shared<ObjectSolid>();
-  double volume = 0;
+// Volume, centre of mass and unit-density inertia (about the centre of mass) of solids together.
+MassProperties combined(const std::vector<MassProperties>& parts) {
+  MassProperties all;
   Vec3 moment = Vec3::Zero();
-  Mat3 second = Mat3::Zero();  // about the file's origin, unit density
-  for (const TriangleMesh& part : parts) {
-    checkSolid(part, file + (part.part.empty() ? "" : " (part '" + part.part + "')"));
-    const MassProperties mp = massProperties(part);
-    volume += mp.volume;
+  Mat3 second = Mat3::Zero();  // about the origin
+  for (const MassProperties& mp : parts) {
+    all.volume += mp.volume;
     moment += mp.volume * mp.centroid;
-    // Parallel axis to the file's origin: I_o = I_c + V (|c|^2 1 - c c^T).
+    // Parallel axis to the origin: I_o = I_c + V (|c|^2 1 - c c^T).
     second += mp.inertia + mp.volume * (mp.centroid.squaredNorm() * Mat3::Identity() - mp.centroid * mp.centroid.transpose());
-    const int base = static_cast<int>(solid->visual_vertices.size());
-    for (const Vec3& v : part.vertices) solid->visual_vertices.push_back(v);
-    for (const auto& f : part.faces) solid->visual_faces.push_back({f[0] + base, f[1] + base, f[2] + base});
   }
-  std::vector<ConvexHull> hulls;
-  for (const TriangleMesh& part : parts) hulls.push_back(cappedHull(part.vertices, hull_vertices, file + (part.part.empty() ? "" : " (part '" + part.part + "')")));
+  all.centroid = moment / all.volume;
+  all.inertia = second - all.volume * (all.centroid.squaredNorm() * Mat3::Identity() - all.centroid * all.centroid.transpose());
+  return all;
+}
+
+// The solid MuJoCo is given: the collision hulls as convex pieces and the visual mesh, all moved
+// so that the hulls' bounding box is centred on the object's frame; the mass properties (centre
+// of mass in the file's frame, inertia about it for the kind's mass) moved along.
+std::shared_ptr<const ObjectSolid> makeSolid(const std::vector<ConvexHull>& hulls, const std::vector<TriangleMesh>& visual, double volume,
+                                             const Vec3& com, const Mat3& inertia) {
+  auto solid = std::make_shared<ObjectSolid>();
   Vec3 lower = hulls.front().lower, upper = hulls.front().upper;
   for (const ConvexHull& h : hulls) lower = lower.cwiseMin(h.lower), upper = upper.cwiseMax(h.upper);
   const Vec3 centre = (lower + upper) / 2;
-  const Vec3 com_file = moment / volume;
-  Mat3 inertia = second - volume * (com_file.squaredNorm() * Mat3::Identity() - com_file * com_file.transpose());
-  if (mass <= 0) mass = density * volume;
-  if (!(mass > 0 && mass < 100)) throw InputError(what, "a mass of " + std::to_string(mass) + " kg from the density and the mesh's volume is not sane");
+  for (const TriangleMesh& part : visual) {
+    const int base = static_cast<int>(solid->visual_vertices.size());
+    for (const Vec3& v : part.vertices) solid->visual_vertices.push_back(v - centre);
+    for (const auto& f : part.faces) solid->visual_faces.push_back({f[0] + base, f[1] + base, f[2] + base});
+  }
   solid->volume = volume;
-  solid->com = com_file - centre;
-  solid->inertia = inertia * (mass / volume);
-  for (Vec3& v : solid->visual_vertices) v -= centre;
+  solid->com = com - centre;
+  solid->inertia = inertia;
   std::vector<ConvexPiece> pieces;
   for (const ConvexHull& hull : hulls) {
     ConvexPiece piece;
@@ -96,6 +95,54 @@ std::shared_ptr<const ObjectSolid> readSolid(const std::string& file, const Vec3
   }
   solid->pieces = std::make_shared<const std::vector<ConvexPiece>>(std::move(pieces));
   return solid;
+}
+
+void checkMass(double mass, const std::string& what) {
+  if (!(mass > 0 && mass < 100)) throw InputError(what, "a mass of " + std::to_string(mass) + " kg from the density and the volume is not sane");
+}
+
+// A mesh kind's solid: every part of the file must be a closed, outward-oriented solid of a sane
+// size (MuJoCo 2.2 would load anything, and compute nonsense or crash on it); it collides as the
+// capped convex hull of each part (an OBJ's groups are its convex pieces; one part: its hull); the
+// mass properties are the parts' (MuJoCo 2.2's own mesh inertia is unreliable), at uniform density.
+std::shared_ptr<const ObjectSolid> readSolid(const std::string& file, const Vec3& scale, int hull_vertices, double& mass, double density,
+                                             const std::string& what) {
+  const std::vector<TriangleMesh> parts = readMeshParts(file, scale);
+  std::vector<MassProperties> props;
+  std::vector<ConvexHull> hulls;
+  for (const TriangleMesh& part : parts) {
+    const std::string name = file + (part.part.empty() ? "" : " (part '" + part.part + "')");
+    checkSolid(part, name);
+    props.push_back(massProperties(part));
+    hulls.push_back(cappedHull(part.vertices, hull_vertices, name));
+  }
+  const MassProperties all = combined(props);
+  if (mass <= 0) mass = density * all.volume;
+  checkMass(mass, what);
+  return makeSolid(hulls, parts, all.volume, all.centroid, all.inertia * (mass / all.volume));
+}
+
+// A URDF kind's solid: its collision elements' capped hulls as the convex pieces; its visual
+// meshes drawn (none: the hulls); its <inertial> as the maker gives it, else the hulls' at uniform
+// density with the catalogue's mass or density.
+std::shared_ptr<const ObjectSolid> urdfSolid(const UrdfObject& u, int hull_vertices, double& mass, double density, const std::string& what) {
+  std::vector<ConvexHull> hulls;
+  std::vector<TriangleMesh> as_meshes;
+  std::vector<MassProperties> props;
+  for (size_t k = 0; k < u.collision.size(); ++k) {
+    hulls.push_back(cappedHull(u.collision[k], hull_vertices, u.collision_what[k]));
+    TriangleMesh t;
+    t.vertices = hulls.back().vertices;
+    t.faces = hulls.back().faces;
+    checkSolid(t, u.collision_what[k]);  // its size sane, its hull a solid
+    props.push_back(massProperties(t));
+    as_meshes.push_back(std::move(t));
+  }
+  const MassProperties all = combined(props);
+  if (u.has_inertial) return makeSolid(hulls, u.visual.empty() ? as_meshes : u.visual, all.volume, u.com, u.inertia);
+  if (mass <= 0) mass = density * all.volume;
+  checkMass(mass, what);
+  return makeSolid(hulls, u.visual.empty() ? as_meshes : u.visual, all.volume, all.centroid, all.inertia * (mass / all.volume));
 }
 
 }  // namespace
@@ -115,18 +162,51 @@ ObjectCatalogue loadObjectCatalogue(const std::string& path) {
     for (const auto& field : n) {
       const std::string key = field.first.Scalar();
       if (key != "shape" && key != "size" && key != "mass" && key != "friction" && key != "condim" && key != "rgba" && key != "mesh" &&
-          key != "scale" && key != "density" && key != "hull_vertices")
+          key != "scale" && key != "density" && key != "hull_vertices" && key != "urdf")
         throw InputError(r.at(field.first), "object kind '" + k.name + "': unknown key '" + key +
-                                                "' (expected shape, size, mass, friction, condim, rgba; a mesh: mesh, scale, mass or density, hull_vertices)");
+                                                "' (expected shape, size, mass, friction, condim, rgba; a mesh: mesh, scale, mass or density, "
+                                                "hull_vertices; a URDF: urdf, hull_vertices, and mass or density if it has no <inertial>)");
     }
     const std::string shape = r.text(n, "shape");
+    const bool urdf = shape == "urdf";
     if (shape == "cylinder") k.shape = ObjectShape::kCylinder;
-    else if (shape == "mesh") k.shape = ObjectShape::kMesh;
-    else if (shape != "box") throw InputError(r.at(n["shape"]), "object kind '" + k.name + "': shape '" + shape + "' is not supported (expected box, cylinder or mesh)");
+    else if (shape == "mesh" || urdf) k.shape = ObjectShape::kMesh;
+    else if (shape != "box") throw InputError(r.at(n["shape"]), "object kind '" + k.name + "': shape '" + shape + "' is not supported (expected box, cylinder, mesh or urdf)");
     for (const char* key : {"mesh", "scale", "density", "hull_vertices"})
       if (n[key] && k.shape != ObjectShape::kMesh)
         throw InputError(r.at(n[key]), "object kind '" + k.name + "': '" + key + "' belongs to a mesh kind (shape: mesh)");
-    if (k.shape == ObjectShape::kMesh) {
+    for (const char* key : {"mesh", "scale"})
+      if (n[key] && urdf) throw InputError(r.at(n[key]), "object kind '" + k.name + "': '" + key + "' comes from the URDF (its <mesh> elements)");
+    if (n["urdf"] && !urdf) throw InputError(r.at(n["urdf"]), "object kind '" + k.name + "': 'urdf' belongs to a URDF kind (shape: urdf)");
+    int hull_vertices = kDefaultHullVertices;
+    if (n["hull_vertices"]) {
+      const double h = r.number(n, "hull_vertices");
+      if (!(h >= 8 && h <= 1000 && h == std::floor(h)))
+        throw InputError(r.at(n["hull_vertices"]), "object kind '" + k.name + "': hull_vertices expects a whole number in [8, 1000]");
+      hull_vertices = static_cast<int>(h);
+    }
+    if (urdf) {
+      if (n["size"]) throw InputError(r.at(n["size"]), "object kind '" + k.name + "': a URDF kind's size comes from its file");
+      const std::filesystem::path file = r.text(n, "urdf");
+      k.mesh = (file.is_absolute() ? file : std::filesystem::path(path).parent_path() / file).lexically_normal().string();
+      try {
+        const UrdfObject u = loadUrdfObject(k.mesh);
+        if (u.has_inertial && (n["mass"] || n["density"]))
+          throw InputError(k.mesh, "gives its own <inertial> (mass " + std::to_string(u.mass) + " kg): the catalogue gives no mass or density for it");
+        if (!u.has_inertial && n["mass"].IsDefined() == n["density"].IsDefined())
+          throw InputError(k.mesh, "has no <inertial>: the catalogue must give either mass [kg] or density [kg/m^3]");
+        k.mass = u.has_inertial ? u.mass : n["mass"] ? r.positive(n, "mass") : 0;
+        k.solid = urdfSolid(u, hull_vertices, k.mass, n["density"] ? r.positive(n, "density") : 0, k.mesh);
+        k.sources.push_back(k.mesh);
+        k.sources.insert(k.sources.end(), u.files.begin(), u.files.end());
+      } catch (const InputError& e) {  // the URDF's fault, and where the catalogue names it
+        throw InputError(r.at(n["urdf"]), "object kind '" + k.name + "': " + e.what());
+      }
+      Vec3 lo = Vec3::Constant(INFINITY), hi = -lo;
+      for (const ConvexPiece& piece : *k.solid->pieces)
+        for (const Vec3& v : piece.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+      k.half_size = (hi - lo) / 2;
+    } else if (k.shape == ObjectShape::kMesh) {
       if (n["size"]) throw InputError(r.at(n["size"]), "object kind '" + k.name + "': a mesh kind's size comes from its file (use scale)");
       if (n["mass"].IsDefined() == n["density"].IsDefined())
         throw InputError(r.at(n), "object kind '" + k.name + "': a mesh kind expects either mass [kg] or density [kg/m^3]");
@@ -142,16 +222,11 @@ ObjectCatalogue loadObjectCatalogue(const std::string& path) {
         for (int i = 0; i < 3; ++i)
           if (!(k.scale[i] > 0)) throw InputError(r.at(sc), "object kind '" + k.name + "': scale expects numbers > 0");
       }
-      int hull_vertices = kDefaultHullVertices;
-      if (n["hull_vertices"]) {
-        const double h = r.number(n, "hull_vertices");
-        if (!(h >= 8 && h <= 1000 && h == std::floor(h))) throw InputError(r.at(n["hull_vertices"]), "object kind '" + k.name + "': hull_vertices expects a whole number in [8, 1000]");
-        hull_vertices = static_cast<int>(h);
-      }
       k.mass = n["mass"] ? r.positive(n, "mass") : 0;
       const double density = n["density"] ? r.positive(n, "density") : 0;
       try {
         k.solid = readSolid(k.mesh, k.scale, hull_vertices, k.mass, density, k.mesh);
+        k.sources = {k.mesh};
       } catch (const InputError& e) {  // the mesh's fault, and where the catalogue names it
         throw InputError(r.at(n["mesh"]), "object kind '" + k.name + "': " + e.what());
       }

@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 #include <vector>
+#include <vector>
 
 #include "core/geometry.h"
 
@@ -33,7 +34,8 @@ struct ObjectKind {
   int condim = 4;                                         ///< MuJoCo's contact dimensionality (1, 3, 4 or 6)
   std::array<double, 4> rgba{0.8, 0.8, 0.8, 1};           ///< the kind's colour, or the palette's by object
   bool has_rgba = false;                                  ///< the file gave the kind a colour
-  std::string mesh;                                       ///< mesh kinds: the OBJ or STL file (its path)
+  std::string mesh;                                       ///< mesh kinds: the OBJ or STL file (its path); URDF kinds: the URDF
+  std::vector<std::string> sources;                       ///< mesh and URDF kinds: every file read for it
   Vec3 scale = Vec3::Ones();                              ///< mesh kinds: the file's units to metres, per axis
   std::shared_ptr<const ObjectSolid> solid;               ///< mesh kinds: the solid read from the file
 };

@@ -129,6 +129,74 @@ TEST(MeshObjects, CollideAsTheirConvexPieces) {
   EXPECT_LT(w->objectPenetration(1), 0.0005);
 }
 
+// A URDF object: the maker's inertial used as given, its mesh collided and drawn; primitives
+// (box, cylinder, sphere) as convex pieces; bad object URDFs are exit 2 naming the file.
+TEST(MeshObjects, UrdfObjectsAsTheirMakersGiveThem) {
+  const ObjectCatalogue c = loadObjectCatalogue("scenes/objects.yaml");
+  const ObjectKind* bar = c.find("hex_bar_urdf");
+  const ObjectKind* prism = c.find("hex_prism");
+  ASSERT_NE(bar, nullptr);
+  EXPECT_EQ(bar->shape, ObjectShape::kMesh);
+  EXPECT_DOUBLE_EQ(bar->mass, 0.08);
+  EXPECT_NEAR(bar->solid->inertia(2, 2), 2.25e-5, 1e-12) << "the URDF's, as given";
+  EXPECT_TRUE(bar->half_size.isApprox(prism->half_size, 1e-9)) << "the same solid as the mesh kind";
+  EXPECT_LT(bar->solid->com.norm(), 1e-9) << "its inertial's origin (25 mm up) is its box's centre";
+  EXPECT_EQ(bar->sources.size(), 3u) << "the URDF and its two mesh references";
+  auto w = SimWorld::load("scenes/bin_large.xml", panda());
+  const auto [T_bin, half] = w->site("bin_region");
+  w->setObjects({c.asObject(*bar, 0)});
+  w->setObjectPose(0, makePose(T_bin.translation() + Vec3(0, 0, bar->half_size.z() + 0.001), Mat3::Identity()));
+  const VecX q = w->armPositions();
+  for (int s = 0; s < 300; ++s) w->stepServo(q, VecX::Zero(q.size()), VecX::Zero(q.size()), 0.04, 0);
+  EXPECT_NEAR(w->object(0).T_world_object.translation().z() - T_bin.translation().z(), bar->half_size.z(), 0.001);
+  EXPECT_NEAR(w->object(0).mass, 0.08, 1e-12);
+
+  TempDir d;
+  const std::string dir = d.path().string();
+  auto urdf = [&](const std::string& name, const std::string& body) {
+    std::ofstream(dir + "/" + name) << "<robot name=\"o\">" << body << "</robot>\n";
+  };
+  auto catalogue = [&](const std::string& kind) {
+    std::ofstream(dir + "/objects.yaml") << "kinds:\n  thing:\n    shape: urdf\n" << kind;
+    return loadObjectCatalogue(dir + "/objects.yaml");
+  };
+  // Primitives, no inertial: a can (cylinder) with a box lid, its mass from a density.
+  urdf("can.urdf", "<link name=\"can\"><collision><geometry><cylinder radius=\"0.03\" length=\"0.08\"/></geometry></collision>"
+                   "<collision><origin xyz=\"0 0 0.045\"/><geometry><box size=\"0.02 0.02 0.01\"/></geometry></collision></link>");
+  const ObjectCatalogue cans = catalogue("    urdf: can.urdf\n    density: 1000\n");
+  const ObjectKind& can = cans.kinds.front();
+  ASSERT_EQ(can.solid->pieces->size(), 2u);
+  EXPECT_NEAR(can.mass, 1000 * (M_PI * 0.03 * 0.03 * 0.08 * std::sin(M_PI / 16) * 16 / M_PI + 0.02 * 0.02 * 0.01), 1e-6)
+      << "a 32-gon prism and the lid";
+  EXPECT_NEAR(2 * can.half_size.z(), 0.08 / 2 + 0.045 + 0.005, 1e-9);
+  auto rejected = [&](const std::string& kind, const std::string& says) {
+    try {
+      catalogue(kind);
+      ADD_FAILURE() << "accepted: " << kind;
+    } catch (const InputError& e) {
+      EXPECT_THAT(e.what(), HasSubstr(says)) << kind;
+    }
+  };
+  rejected("    urdf: can.urdf\n", "has no <inertial>");
+  urdf("two.urdf", "<link name=\"a\"><collision><geometry><box size=\"0.05 0.05 0.05\"/></geometry></collision></link><link name=\"b\"/>"
+                   "<joint name=\"j\" type=\"fixed\"><parent link=\"a\"/><child link=\"b\"/></joint>");
+  rejected("    urdf: two.urdf\n    mass: 0.1\n", "exactly one link");
+  urdf("massless.urdf", "<link name=\"m\"><inertial><mass value=\"0\"/><inertia ixx=\"1e-5\" iyy=\"1e-5\" izz=\"1e-5\" ixy=\"0\" "
+                        "ixz=\"0\" iyz=\"0\"/></inertial><collision><geometry><box size=\"0.05 0.05 0.05\"/></geometry></collision></link>");
+  rejected("    urdf: massless.urdf\n", "mass must be > 0");
+  urdf("lopsided.urdf", "<link name=\"m\"><inertial><mass value=\"0.1\"/><inertia ixx=\"1e-5\" iyy=\"1e-5\" izz=\"5e-5\" ixy=\"0\" "
+                        "ixz=\"0\" iyz=\"0\"/></inertial><collision><geometry><box size=\"0.05 0.05 0.05\"/></geometry></collision></link>");
+  rejected("    urdf: lopsided.urdf\n", "not a body's");
+  urdf("given.urdf", "<link name=\"m\"><inertial><mass value=\"0.1\"/><inertia ixx=\"4e-5\" iyy=\"4e-5\" izz=\"4e-5\" ixy=\"0\" "
+                     "ixz=\"0\" iyz=\"0\"/></inertial><collision><geometry><box size=\"0.05 0.05 0.05\"/></geometry></collision></link>");
+  EXPECT_DOUBLE_EQ(catalogue("    urdf: given.urdf\n").kinds.front().mass, 0.1);
+  rejected("    urdf: given.urdf\n    mass: 0.2\n", "gives its own <inertial>");
+  urdf("nomesh.urdf", "<link name=\"m\"><collision><geometry><mesh filename=\"package://nowhere/x.stl\"/></geometry></collision></link>");
+  rejected("    urdf: nomesh.urdf\n    mass: 0.1\n", "cannot resolve 'package://nowhere/x.stl'");
+  urdf("huge.urdf", "<link name=\"m\"><collision><geometry><box size=\"5 5 5\"/></geometry></collision></link>");
+  rejected("    urdf: huge.urdf\n    mass: 0.1\n", "huge.urdf");
+}
+
 TEST(MeshObjects, BadMeshKindsAreExitTwoNamingTheFile) {
   TempDir d;
   const std::string dir = d.path().string();

@@ -98,7 +98,7 @@ TEST(ObjectCatalogue, BadCataloguesKindsAndScenesAreExitTwoNamingTheFile) {
     FAIL();
   } catch (const InputError& e) {
     EXPECT_THAT(e.what(), HasSubstr(ball + ":3:"));
-    EXPECT_THAT(e.what(), HasSubstr("expected box, cylinder or mesh"));
+    EXPECT_THAT(e.what(), HasSubstr("expected box, cylinder, mesh or urdf"));
   }
   const std::string oval = d.file("oval.yaml", "kinds:\n  can:\n    shape: cylinder\n    size: [0.05, 0.04, 0.1]\n    mass: 0.2\n");
   try {
