@@ -205,28 +205,58 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
         for (int k = 0; k < n; ++k) r->render(*world, cam, kind);
         o << " " << name << " " << 1e3 * secs(t0, Clock::now()) / n << " ms" << (kind == (kRgb | kDepth | kSegmentation) ? "\n" : ",");
       }
-      // Camera perception on the same state: the depth image at its resolution, the sensor's
-      // noise, the detection (the last trial's objects are wherever it left them).
-      const CameraModel pcam = r->camera(*world, e.perception.camera, e.perception.camera_width, e.perception.camera_height, e.file);
-      const int n = 20;
-      double t_render = 0, t_noise = 0, t_detect = 0;
-      size_t found = 0;
-      Rng rng(1);
-      CameraPerceptionOptions co;
-      co.T_world_crop = cell.perception.T_world_crop;
-      co.crop_half = cell.perception.crop_half;
-      co.crop_height = cell.perception.crop_height;
-      for (int k = 0; k < n; ++k) {
-        const auto a = Clock::now();
-        Frame f = r->render(*world, pcam, kDepth);
-        const auto b = Clock::now();
-        applyDepthNoise(f, e.perception.noise, rng);
-        const auto t_c = Clock::now();
-        found = detectKnownObjects(f, cell.perception.shapes, co, rng).detections.size();
-        t_render += secs(a, b), t_noise += secs(b, t_c), t_detect += secs(t_c, Clock::now());
+      // Camera perception — depth image in, ranked grasp candidates out — on the experiment's
+      // first scene spawned afresh (bin clearing's: a pile of ten), at 640x480 and at the
+      // experiment's resolution: the sensor's noise, each step of the detection, and the grasp
+      // candidates of every object found (scored against the others and what no detection explains).
+      Rng scene_rng = Rng::stream(e.seed, 0, Purpose::kScene);
+      const SpawnResult pile = spawnObjects(*world, robot, cell.T_world_bin, cell.bin_half, scene_rng, cell.spawn);
+      world->updateKinematics();
+      const GraspOptions go = graspOptionsFor(robot.spec().gripper, e.task);
+      std::vector<std::pair<int, int>> sizes = {{640, 480}};
+      if (e.perception.camera_width != 640 || e.perception.camera_height != 480)
+        sizes.push_back({e.perception.camera_width, e.perception.camera_height});
+      for (const auto& [width, height] : sizes) {
+        const CameraModel pcam = r->camera(*world, e.perception.camera, width, height, e.file);
+        const int n = 10;
+        double t_render = 0, t_noise = 0, t_grasps = 0;
+        CameraPerceptionResult sum;
+        size_t found = 0, candidates = 0;
+        Rng rng(1);
+        CameraPerceptionOptions co;
+        co.T_world_crop = cell.perception.T_world_crop;
+        co.crop_half = cell.perception.crop_half;
+        co.crop_height = cell.perception.crop_height;
+        co.depth_sigma_k = e.perception.noise.k;
+        for (int k = 0; k < n; ++k) {
+          const auto a = Clock::now();
+          Frame f = r->render(*world, pcam, kDepth);
+          const auto b = Clock::now();
+          applyDepthNoise(f, e.perception.noise, rng);
+          const auto t_c = Clock::now();
+          const CameraPerceptionResult res = detectKnownObjects(f, cell.perception.shapes, co, rng);
+          const auto t_d = Clock::now();
+          candidates = 0;
+          for (const CameraDetection& det : res.detections) {
+            std::vector<Obstacle> others = res.unexplained;
+            for (const CameraDetection& other : res.detections)
+              if (&other != &det) others.push_back(Obstacle{Obstacle::Type::kBox, other.object.half_size, other.object.T_world_object, ""});
+            candidates += graspCandidates(det.object, 0.0, Vec3::Zero(), others, go).size();
+          }
+          t_render += secs(a, b), t_noise += secs(b, t_c), t_grasps += secs(t_d, Clock::now());
+          sum.seconds.cloud += res.seconds.cloud, sum.seconds.floor += res.seconds.floor, sum.seconds.faces += res.seconds.faces;
+          sum.seconds.fit += res.seconds.fit, sum.seconds.unexplained += res.seconds.unexplained;
+          found = res.detections.size();
+        }
+        const auto& t = sum.seconds;
+        const double detect = t.cloud + t.floor + t.faces + t.fit + t.unexplained;
+        o << "  camera perception, " << pcam.width << "x" << pcam.height << " depth, " << pile.active.size()
+          << " objects spawned (trial 0's scene): render " << 1e3 * t_render / n << " ms; depth image in, grasps out "
+          << 1e3 * (t_noise + detect + t_grasps) / n << " ms = sensor noise " << 1e3 * t_noise / n << " + cloud " << 1e3 * t.cloud / n
+          << " + floor " << 1e3 * t.floor / n << " + faces " << 1e3 * t.faces / n << " + fit " << 1e3 * t.fit / n << " + unexplained "
+          << 1e3 * t.unexplained / n << " + grasp candidates " << 1e3 * t_grasps / n << " ms (" << found << " objects found, " << candidates
+          << " candidates)\n";
       }
-      o << "  camera perception, " << pcam.width << "x" << pcam.height << " depth: render " << 1e3 * t_render / n << " ms, sensor noise "
-        << 1e3 * t_noise / n << " ms, detection " << 1e3 * t_detect / n << " ms (" << found << " objects found in the last trial's bin)\n";
     }
   }
   o.precision(1);

@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -367,6 +368,13 @@ std::vector<FaceRect> packFaceRects(const std::vector<cv::Point2f>& flat, const 
 CameraPerceptionResult detectKnownObjects(const Frame& frame, const std::vector<KnownShape>& shapes,
                                    const CameraPerceptionOptions& o, Rng& rng) {
   CameraPerceptionResult res;
+  // Wall-clock time of each step, for benchmarks only (nothing decides by it).
+  auto mark = std::chrono::steady_clock::now();
+  auto lap = [&](double& into) {
+    const auto now = std::chrono::steady_clock::now();
+    into += std::chrono::duration<double>(now - mark).count();
+    mark = now;
+  };
   const CameraModel& cam = frame.camera;
   const int w = cam.width, h = cam.height;
   if (frame.depth.size() != static_cast<size_t>(w) * static_cast<size_t>(h)) {
@@ -392,8 +400,10 @@ CameraPerceptionResult detectKnownObjects(const Frame& frame, const std::vector<
     res.reason = "the camera sees too little of the bin (" + std::to_string(pts.size()) + " points)";
     return res;
   }
+  lap(res.seconds.cloud);
   // The support plane: the bin floor. What rises above it is objects.
   const Plane floor = ransacPlane(pts, o.plane_threshold, rng, &res.plane_inliers);
+  lap(res.seconds.floor);
   std::vector<int> index_of(static_cast<size_t>(w) * static_cast<size_t>(h), -1);  // pixel -> point
   for (size_t i = 0; i < pts.size(); ++i)
     if (floor.distance(pts[i]) > o.plane_threshold) {
@@ -405,6 +415,7 @@ CameraPerceptionResult detectKnownObjects(const Frame& frame, const std::vector<
   // region's plane is refitted as it grows. Touching faces at different heights or angles part;
   // coplanar touching faces stay one region (the rectangles found in it later).
   const std::vector<std::vector<int>> cluster_pixels = growFaces(pts, index_of, w, h, frame.depth, o, floor);
+  lap(res.seconds.faces);
   const Vec3 eye = T_crop_camera.translation();
   auto ray = [&](int k) {
     const int u = k % w, v = k / w;
@@ -612,6 +623,7 @@ CameraPerceptionResult detectKnownObjects(const Frame& frame, const std::vector<
     if (!same) kept.push_back(d);
   }
   res.detections = std::move(kept);
+  lap(res.seconds.fit);
   // The points no detection explains (outside every detected box grown by 4 mm sideways and by
   // 4 sigma of the depth noise along the axis nearest the vertical: a margin wider sideways would
   // eat into a touching neighbour just where a finger goes down), in connected patches of at least
@@ -662,6 +674,7 @@ CameraPerceptionResult detectKnownObjects(const Frame& frame, const std::vector<
       res.unexplained.push_back(ob);
     }
   }
+  lap(res.seconds.unexplained);
   res.ok = !res.detections.empty();
   if (!res.ok) res.reason = "no object detected in the depth image";
   return res;
