@@ -114,7 +114,7 @@ void TrialRecord::describe(RecordArchive& a) {
     if (g.reading() && o.grasp_selections.size() <= i) o.grasp_selections.resize(i + 1);
     GraspSelection& k = o.grasp_selections[i];
     g.field("object", k.object, "", "object index (object_<k>)");
-    g.field("shape", k.shape, "", "box or cylinder, as perceived");
+    g.field("shape", k.shape, "", "box, cylinder or mesh (a solid from a mesh or URDF file), as perceived");
     g.field("candidates", k.candidates, "", "grasp candidates generated");
     size_t n_tried = k.tried.size();
     g.list("tried", n_tried, [&](size_t j, RecordArchive& t) {

@@ -27,8 +27,9 @@
 namespace mm {
 
 /// The scene's MJCF with the robot mounted, `objects` added as bodies object_0, object_1, ... (a
-/// free joint and one box or cylinder geom each, in the base frame, where MuJoCo's initial state leaves them
-/// does not matter: SimWorld parks them) and one weld `attach_<k>` (off) per object, as a
+/// free joint each, and one box or cylinder geom, or a mesh kind's convex pieces (group 3) and its
+/// drawn mesh (no contacts) with its <inertial>; in the base frame, where MuJoCo's initial state
+/// leaves them does not matter: SimWorld parks them) and one weld `attach_<k>` (off) per object, as a
 /// self-contained MJCF text (the scene's <include>s expanded). Throws InputError naming the scene
 /// file for malformed XML, a scene that already holds a body of the robot's or an object_<k> body,
 /// or a misplaced mount.
