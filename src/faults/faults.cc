@@ -21,6 +21,8 @@ const char* faultKindName(FaultKind k) {
     case FaultKind::kGraspSlip: return "grasp_slip";
     case FaultKind::kGripperNoClose: return "gripper_no_close";
     case FaultKind::kJointStall: return "joint_stall";
+    case FaultKind::kCameraBlackout: return "camera_blackout";
+    case FaultKind::kDepthDropout: return "depth_dropout";
     case FaultKind::kCount: break;
   }
   return "?";
@@ -46,6 +48,8 @@ void FaultOptions::declare(ConfigArchive& a) {
       "probability per trial that the held object slips out of the fingers as it is lifted out of the bin (it falls back in: detect, pick again)",
       "probability per trial that the gripper does not close when first told to",
       "probability per trial that the fastest-moving joint stalls for stall_time during a move",
+      "camera mode: probability per trial that the first frame is black, with no depth (the camera blacks out once)",
+      "camera mode: probability per trial that the first frame has no depth over a rectangle covering 40-70% of the bin's image",
   };
   for (int k = 0; k < static_cast<int>(FaultKind::kCount); ++k)
     a.value(faultKindName(static_cast<FaultKind>(k)), rate[k], {0.0, 1.0}, "", what[k]);
@@ -129,6 +133,8 @@ FaultInjector::FaultInjector(const FaultOptions& o, SimWorld& world, uint64_t se
     a.delay = static_cast<FaultKind>(k) == FaultKind::kGraspSlip ? r.uniform(0.2, 0.6) : r.uniform(0.1, 0.5);
     a.angle = r.uniform(-M_PI, M_PI);
     a.sign = r.uniform() < 0.5 ? -1.0 : 1.0;
+    a.fraction = r.uniform();
+    a.where = {r.uniform(), r.uniform()};
   }
 }
 
@@ -165,6 +171,42 @@ int mostRoom(const std::vector<ObjectState>& objects) {
 }
 
 }  // namespace
+
+void FaultInjector::onFrame(TrialContext& ctx, Frame& f) {
+  // The first frame (before anything else failed) is blacked out; the first frame not blacked out,
+  // before a perception has succeeded, loses depth over a region: both may strike one trial.
+  const bool perceived =
+      std::any_of(ctx.milestones.begin(), ctx.milestones.end(), [](const auto& m) { return m.what == "perception"; });
+  if (perceived) return;
+  Armed& blackout = at(FaultKind::kCameraBlackout);
+  if (blackout.drawn && !blackout.fired && ctx.out.failures.empty()) {
+    fire(FaultKind::kCameraBlackout, ctx, "perception");
+    std::fill(f.depth.begin(), f.depth.end(), 0.0f);
+    std::fill(f.rgb.begin(), f.rgb.end(), uint8_t{0});
+    return;
+  }
+  Armed& dropout = at(FaultKind::kDepthDropout);
+  if (dropout.drawn && !dropout.fired && ctx.perception.crop_half.x() > 0) {
+    fire(FaultKind::kDepthDropout, ctx, "perception");
+    // A rectangle of the image over the bin, its sides 63-84% of the bin's image extent (40-70%
+    // of its area), its place drawn from the kind's stream: no depth there.
+    const Pose& T = ctx.perception.T_world_crop;
+    const Vec3 h = ctx.perception.crop_half;
+    double u0 = 1e9, u1 = -1e9, v0 = 1e9, v1 = -1e9;
+    for (double sx : {-1.0, 1.0})
+      for (double sy : {-1.0, 1.0}) {
+        const Vec3 px = f.camera.project(T * Vec3(sx * h.x(), sy * h.y(), 0));
+        u0 = std::min(u0, px.x()), u1 = std::max(u1, px.x()), v0 = std::min(v0, px.y()), v1 = std::max(v1, px.y());
+      }
+    const double side = std::sqrt(0.4 + 0.3 * dropout.fraction);
+    const double w = side * (u1 - u0), hh = side * (v1 - v0);
+    const double cu = u0 + w / 2 + dropout.where[0] * (u1 - u0 - w), cv = v0 + hh / 2 + dropout.where[1] * (v1 - v0 - hh);
+    const int ua = std::max(0, static_cast<int>(std::floor(cu - w / 2))), ub = std::min(f.camera.width, static_cast<int>(std::ceil(cu + w / 2)));
+    const int va = std::max(0, static_cast<int>(std::floor(cv - hh / 2))), vb = std::min(f.camera.height, static_cast<int>(std::ceil(cv + hh / 2)));
+    for (int v = va; v < vb; ++v)
+      for (int u = ua; u < ub; ++u) f.depth[static_cast<size_t>(v) * static_cast<size_t>(f.camera.width) + static_cast<size_t>(u)] = 0.0f;
+  }
+}
 
 void FaultInjector::onPerception(TrialContext& ctx, PerceptionResult& r) {
   const bool first = !std::any_of(ctx.milestones.begin(), ctx.milestones.end(), [](const auto& m) { return m.what == "perception"; }) &&
@@ -401,7 +443,9 @@ std::vector<FaultRecord> FaultInjector::report(const TrialContext& ctx) const {
     std::string needed = a.milestone;
     if (needed.empty()) {
       switch (static_cast<FaultKind>(k)) {
-        case FaultKind::kPerceptionDropout: needed = "perception"; break;
+        case FaultKind::kPerceptionDropout:
+        case FaultKind::kCameraBlackout:
+        case FaultKind::kDepthDropout: needed = "perception"; break;
         case FaultKind::kGraspSlip: needed = "place"; break;
         default: needed = "pick"; break;
       }

@@ -34,6 +34,8 @@ enum class FaultKind {
   kGraspSlip,            ///< the held object slips out of the fingers as it is lifted (falls back into the bin)
   kGripperNoClose,       ///< the gripper does not close (once)
   kJointStall,           ///< the fastest joint stalls for a moment during a move
+  kCameraBlackout,       ///< camera mode: the first frame is black, no depth (the source's camera_blackout)
+  kDepthDropout,         ///< camera mode: the first frame has no depth over a region of the bin
   kCount
 };
 const char* faultKindName(FaultKind k);
@@ -68,6 +70,7 @@ class FaultInjector final : public FaultHooks {
   Hardware& wrap(Hardware& inner);
 
   void onPerception(TrialContext& ctx, PerceptionResult& result) override;
+  void onFrame(TrialContext& ctx, Frame& frame) override;
   bool failPlanning(TrialContext& ctx, const std::string& stage) override;
   void onPlanned(TrialContext& ctx, const Plan& plan) override;
   void beforeStep(TrialContext& ctx) override;
@@ -85,6 +88,8 @@ class FaultInjector final : public FaultHooks {
     double delay = 0;      // [s] into its stage
     double angle = 0;      // direction of a shift
     double sign = 1;
+    double fraction = 0;               // a dropout's size, in [0, 1) of its range
+    std::array<double, 2> where{0, 0};  // a dropout's place, in [0, 1) of the room left
     int object = -1;
     std::string milestone; // what recovering from it means
   };

@@ -7,6 +7,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <limits>
 
@@ -396,6 +397,39 @@ CameraPerceptionResult detectKnownObjects(const Frame& frame, const std::vector<
       pts.push_back(p);
       pix.push_back(v * w + u);
     }
+  // Depth missing over the bin: the pixels whose rays meet the bin's floor inside its footprint
+  // (what is in the bin stands in front of the floor and has depth too), against those of them
+  // with none. A few percent are lost at depth edges; a blackout or a dropout loses much more.
+  if (o.crop_half.x() > 0) {
+    const Mat3 R = T_crop_camera.linear();
+    const Vec3 t = T_crop_camera.translation();
+    double u0 = w, u1 = 0, v0 = h, v1 = 0;
+    for (double sx : {-1.0, 1.0})
+      for (double sy : {-1.0, 1.0}) {
+        const Vec3 c = T_crop_camera.inverse() * Vec3(sx * o.crop_half.x(), sy * o.crop_half.y(), 0);
+        if (c.z() <= 0) continue;
+        u0 = std::min(u0, cam.fx * c.x() / c.z() + cam.cx), u1 = std::max(u1, cam.fx * c.x() / c.z() + cam.cx);
+        v0 = std::min(v0, cam.fy * c.y() / c.z() + cam.cy), v1 = std::max(v1, cam.fy * c.y() / c.z() + cam.cy);
+      }
+    long floor_px = 0, missing_px = 0;
+    for (int v = std::max(0, static_cast<int>(v0)); v < std::min(h, static_cast<int>(v1) + 1); ++v)
+      for (int u = std::max(0, static_cast<int>(u0)); u < std::min(w, static_cast<int>(u1) + 1); ++u) {
+        const Vec3 d = R * Vec3((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0);
+        if (d.z() >= 0) continue;
+        const Vec3 hit = t + (-t.z() / d.z()) * d;
+        if (std::abs(hit.x()) > o.crop_half.x() || std::abs(hit.y()) > o.crop_half.y()) continue;
+        ++floor_px;
+        missing_px += !(frame.depth[static_cast<size_t>(v) * static_cast<size_t>(w) + static_cast<size_t>(u)] > 0);
+      }
+    res.missing = floor_px > 0 ? static_cast<double>(missing_px) / static_cast<double>(floor_px) : 0.0;
+    if (res.missing > o.max_missing) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "no depth over %.0f%% of the bin (more than %.0f%%: a blackout or a dropout); look again",
+                    100 * res.missing, 100 * o.max_missing);
+      res.reason = buf;
+      return res;
+    }
+  }
   if (pts.size() < 100) {
     res.reason = "the camera sees too little of the bin (" + std::to_string(pts.size()) + " points)";
     return res;

@@ -42,6 +42,9 @@ struct CameraPerceptionOptions {
   double plane_threshold = 0.008;        ///< [m] points this close to the support plane are the plane
   int min_pixels = 40;                   ///< a face needs this many
   double depth_sigma_k = 0.0015;         ///< the sensor's depth noise as its datasheet gives it: sigma = k z^2 [1/m]
+  /// A frame with no depth over more than this share of the bin's image is not perceived (a
+  /// blackout, a dropout): the perception fails, saying so, and the tree may look again.
+  double max_missing = 0.25;
 };
 
 struct CameraDetection {
@@ -55,6 +58,7 @@ struct CameraPerceptionResult {
   std::vector<CameraDetection> detections;
   std::string reason;
   int plane_inliers = 0;
+  double missing = 0;  ///< the share of the bin's floor area in the image with no depth
   /// What rises above the floor that no detection explains (an object not recognised, the part of
   /// a pile the camera could not split): each connected patch of such points a box in the world,
   /// upright from the floor to its highest point (what is under a seen surface is unknown, so taken

@@ -24,6 +24,9 @@ void PerceptionOptions::declare(ConfigArchive& a) {
           "what the sensor looks at rises this far above the bin floor (objects whose centre is lower count as in the bin; the "
           "camera's points higher are left out); 0: three of the tallest of the experiment's object kinds stacked (a pile), at "
           "least 0.1");
+  a.value("max_missing_depth", max_missing_depth, {0.0, 1.0}, "",
+          "camera mode: a frame with no depth over more than this share of the bin's floor area is not perceived (a blackout, a "
+          "dropout): the perception fails saying so, and a recovering tree looks again");
   a.value("edge_dropout", noise.edge_dropout, {0.0, 1.0}, "",
           "camera mode: the chance a pixel at a depth edge (its 3x3 neighbourhood spanning more than 1 cm) has no depth, as stereo matching fails there");
 }

@@ -32,6 +32,7 @@ struct PerceptionOptions {
   std::string camera = "overhead_camera";
   int camera_width = 1280, camera_height = 960;  ///< [px]
   DepthNoise noise;  ///< the sensor's (applied where the image is made)
+  double max_missing_depth = 0.25;  ///< a frame with no depth over more than this share of the bin is not perceived
   std::string extrinsics = "simulator";  ///< a file from `minimanip calibrate`, or "simulator": the true camera pose
   bool calibrated = false;  ///< T_world_camera holds the file's extrinsics
   Pose T_world_camera = Pose::Identity();

@@ -4,6 +4,7 @@
 #pragma once
 #include <string>
 
+#include "core/camera.h"
 #include "perception/perception.h"
 
 namespace mm {
@@ -16,6 +17,8 @@ class FaultHooks {
   virtual ~FaultHooks() = default;
   /// A perception's result before the robot sees it (may drop, shift or add objects).
   virtual void onPerception(TrialContext& ctx, PerceptionResult& result) = 0;
+  /// Camera mode: the camera's frame before perception reads it (may black it out or lose depth).
+  virtual void onFrame(TrialContext& ctx, Frame& frame) = 0;
   /// Before a joint-space planning call of `stage`: true makes it fail.
   virtual bool failPlanning(TrialContext& ctx, const std::string& stage) = 0;
   /// A plan was made (may change the world it was made for).

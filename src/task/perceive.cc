@@ -33,12 +33,14 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
     p.reason = "camera '" + o.camera + "': " + why;
     return p;
   }
+  if (ctx.faults) ctx.faults->onFrame(ctx, frame);
   if (o.calibrated) frame.camera.T_world_camera = o.T_world_camera;  // where calibration says it is
   CameraPerceptionOptions co;
   co.T_world_crop = o.T_world_crop;
   co.crop_half = o.crop_half;
   co.crop_height = o.crop_height;
   co.depth_sigma_k = o.noise.k;  // the sensor's datasheet: the noise the experiment gives it
+  co.max_missing = o.max_missing_depth;
   const CameraPerceptionResult r = detectKnownObjects(frame, o.shapes, co, ctx.rng_perception);
   ctx.seen_obstacles = r.unexplained;  // what the camera saw and could not explain: avoided, not hit
   for (const CameraDetection& d : r.detections) {

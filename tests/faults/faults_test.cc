@@ -1,6 +1,6 @@
 // Fault injection: independent streams per kind, and every kind firing, detected and recovered
-// from (or correctly given up) by the recovering tree in short seeded MuJoCo campaigns, while the
-// recovery-free tree fails on it.
+// from (or correctly given up) by the recovering tree in short seeded MuJoCo campaigns (camera
+// kinds in camera mode), while the recovery-free tree fails on it.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -10,6 +10,7 @@
 #include "campaign/campaign.h"
 #include "campaign/experiment.h"
 #include "campaign/record.h"
+#include "core/error.h"
 #include "faults/faults.h"
 #include "robot/robot_model.h"
 #include "sim/sim_world.h"
@@ -48,10 +49,23 @@ TEST(FaultKinds, NamesRoundTripAndOnlyObjectRemovedIsUnrecoverable) {
   EXPECT_EQ(faultKindFromName("gremlins"), FaultKind::kCount);
 }
 
+TEST(FaultKinds, CameraKindsNeedCameraMode) {
+  for (const char* kind : {"camera_blackout", "depth_dropout"}) {
+    try {
+      loadExperiment("experiments/faults.yaml", {std::string("faults.") + kind + "=0.1"});
+      ADD_FAILURE() << kind << " accepted with ground-truth perception";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("needs perception.mode camera"), std::string::npos) << e.what();
+    }
+    EXPECT_NO_THROW(loadExperiment("experiments/faults.yaml", {std::string("faults.") + kind + "=0.1", "perception.mode=camera"}));
+  }
+}
+
 // experiments/faults.yaml with only `kind` injected, in every trial, by `tree`.
 FaultStats campaignWithOnly(FaultKind kind, const std::string& tree, int trials, CampaignSummary* summary = nullptr) {
   std::vector<std::string> sets = {"trials=" + std::to_string(trials), "seed=3", "progress=none", "bt.log=none",
                                    "tree=" + tree};
+  if (kind == FaultKind::kCameraBlackout || kind == FaultKind::kDepthDropout) sets.push_back("perception.mode=camera");  // they strike the camera
   for (int k = 0; k < static_cast<int>(FaultKind::kCount); ++k)
     sets.push_back(std::string("faults.") + faultKindName(static_cast<FaultKind>(k)) + "=" +
                    (static_cast<FaultKind>(k) == kind ? "1" : "0"));
