@@ -111,8 +111,8 @@ json fingerprintOf(const Experiment& e) {
     std::string digest = "contents " + fileDigest(e.spawn.catalogue);
     SpawnOptions spawn = e.spawn;
     spawn.resolve(e.file);
-    for (const ObjectKind& k : spawn.loaded.kinds)
-      for (const std::string& file : k.sources) digest += " " + k.name + ":" + fileDigest(file);
+    for (const std::string& name : spawn.kinds)  // the kinds in play: another kind's files do not change this campaign
+      for (const std::string& file : spawn.loaded.find(name)->sources) digest += " " + name + ":" + fileDigest(file);
     f["objects.catalogue"] = digest;
   }
   if (e.perception.extrinsics != "simulator") f["perception.extrinsics"] = "contents " + fileDigest(e.perception.extrinsics);

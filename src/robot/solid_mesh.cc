@@ -223,6 +223,7 @@ std::vector<TriangleMesh> readStlParts(const std::string& path, const std::strin
       if (!in_loop) throw InputError(where, "ASCII STL: 'vertex' outside 'outer loop' ... 'endloop'");
       loop.push_back(vertex(xyz[0], xyz[1], xyz[2], where));
     } else if (key == "endloop") {
+      if (!in_loop) throw InputError(where, "ASCII STL: 'endloop' without its 'outer loop'");
       if (loop.size() < 3) throw InputError(where, "ASCII STL: a facet needs three vertices, this one has " + std::to_string(loop.size()));
       for (size_t k = 1; k + 1 < loop.size(); ++k) raw[0].faces.push_back({loop[0], loop[k], loop[k + 1]});
       in_loop = false;

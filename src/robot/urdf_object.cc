@@ -132,7 +132,7 @@ UrdfObject loadUrdfObject(const std::string& path) {
     // A body's principal moments are positive and each at most the sum of the other two.
     const Eigen::SelfAdjointEigenSolver<Mat3> eig(o.inertia);
     const Vec3 m = eig.eigenvalues();
-    if (!o.inertia.allFinite() || !(m.minCoeff() > 0) || m[2] > m[0] + m[1] + 1e-12 * m[2])
+    if (!o.inertia.allFinite() || !(m.minCoeff() > 1e-12) || m[2] > m[0] + m[1])
       throw InputError(where, "<inertial> inertia is not a body's (principal moments " + std::to_string(m[0]) + ", " + std::to_string(m[1]) +
                                   ", " + std::to_string(m[2]) + " kg m^2: each must be > 0 and at most the sum of the other two)");
   }

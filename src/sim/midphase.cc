@@ -311,7 +311,7 @@ int convexPair(const mjModel* m, const mjData* d, mjContact* con, int g1, int g2
   else if (fb.size() >= 3) common = clipTo(fa, fb);
   if (common.size() < 2) return n0;
   // Spread: the first corner, the farthest from it, the farthest from that line on each side.
-  auto d2 = [](const P2& a, const P2& b) { return std::hypot(a[0] - b[0], a[1] - b[1]); };
+  auto d2 = [](const P2& a, const P2& b) { return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1])); };
   size_t pick[4] = {0, 0, 0, 0};
   int count = 1;
   const mjtNum eps = 1e-3 * std::min(m->geom_rbound[g1], m->geom_rbound[g2]);

@@ -64,6 +64,30 @@ MassProperties combined(const std::vector<MassProperties>& parts) {
   return all;
 }
 
+// Mass properties summed over pieces count an overlap twice: pieces must only touch (as a convex
+// decomposition's do). A vertex of one strictly inside another (deeper than 0.1 mm) is an overlap.
+void checkNoOverlap(const std::vector<ConvexHull>& hulls, const std::vector<std::string>& names) {
+  for (size_t i = 0; i < hulls.size(); ++i)
+    for (size_t j = 0; j < hulls.size(); ++j) {
+      if (i == j) continue;
+      std::vector<std::pair<Vec3, double>> planes;
+      for (const auto& f : hulls[j].faces) {
+        const Vec3 a = hulls[j].vertices[static_cast<size_t>(f[0])], b = hulls[j].vertices[static_cast<size_t>(f[1])],
+                   c = hulls[j].vertices[static_cast<size_t>(f[2])];
+        const Vec3 n = (b - a).cross(c - a);
+        if (n.norm() > 1e-15) planes.push_back({n.normalized(), n.normalized().dot(a)});
+      }
+      for (const Vec3& v : hulls[i].vertices) {
+        double worst = -INFINITY;
+        for (const auto& [n, d] : planes) worst = std::max(worst, n.dot(v) - d);
+        if (worst < -1e-4)
+          throw InputError(names[i], "overlaps " + names[j] + " by " + std::to_string(-1000 * worst) +
+                                         " mm: convex pieces must only touch, or their volume counts twice (give the mass "
+                                         "properties instead: a URDF's <inertial>)");
+      }
+    }
+}
+
 // The solid MuJoCo is given: the collision hulls as convex pieces and the visual mesh, all moved
 // so that the hulls' bounding box is centred on the object's frame; the mass properties (centre
 // of mass in the file's frame, inertia about it for the kind's mass) moved along.
@@ -110,12 +134,14 @@ std::shared_ptr<const ObjectSolid> readSolid(const std::string& file, const Vec3
   const std::vector<TriangleMesh> parts = readMeshParts(file, scale);
   std::vector<MassProperties> props;
   std::vector<ConvexHull> hulls;
+  std::vector<std::string> names;
   for (const TriangleMesh& part : parts) {
-    const std::string name = file + (part.part.empty() ? "" : " (part '" + part.part + "')");
-    checkSolid(part, name);
+    names.push_back(file + (part.part.empty() ? "" : " (part '" + part.part + "')"));
+    checkSolid(part, names.back());
     props.push_back(massProperties(part));
-    hulls.push_back(cappedHull(part.vertices, hull_vertices, name));
+    hulls.push_back(cappedHull(part.vertices, hull_vertices, names.back()));
   }
+  checkNoOverlap(hulls, names);
   const MassProperties all = combined(props);
   if (mass <= 0) mass = density * all.volume;
   checkMass(mass, what);
@@ -140,6 +166,7 @@ std::shared_ptr<const ObjectSolid> urdfSolid(const UrdfObject& u, int hull_verti
   }
   const MassProperties all = combined(props);
   if (u.has_inertial) return makeSolid(hulls, u.visual.empty() ? as_meshes : u.visual, all.volume, u.com, u.inertia);
+  checkNoOverlap(hulls, u.collision_what);
   if (mass <= 0) mass = density * all.volume;
   checkMass(mass, what);
   return makeSolid(hulls, u.visual.empty() ? as_meshes : u.visual, all.volume, all.centroid, all.inertia * (mass / all.volume));

@@ -309,6 +309,7 @@ std::string composeScene(const std::string& scene_xml, const RobotSpec& robot, c
       visual->SetAttribute("mesh", (name + "_visual").c_str());
       visual->SetAttribute("contype", 0);
       visual->SetAttribute("conaffinity", 0);
+      visual->SetAttribute("mass", 0);
       visual->SetAttribute("group", 1);
       visual->SetAttribute("rgba", buf);
       body->InsertEndChild(visual);

@@ -28,8 +28,10 @@ std::string objectsKey(const std::vector<ObjectKind>& objects) {
     if (o.shape == ObjectShape::kMesh) {
       size_t vertices = 0;
       for (const ConvexPiece& piece : *o.solid->pieces) vertices += piece.vertices.size();
-      std::snprintf(buf, sizeof buf, "%.17g %.17g %.17g|%zu %zu|%.17g;", o.scale.x(), o.scale.y(), o.scale.z(), o.solid->pieces->size(), vertices,
-                    o.solid->volume);
+      const ObjectSolid& so = *o.solid;
+      std::snprintf(buf, sizeof buf, "%.17g %.17g %.17g|%zu %zu %zu|%.17g|%.17g %.17g %.17g|%.17g %.17g %.17g %.17g %.17g %.17g;", o.scale.x(),
+                    o.scale.y(), o.scale.z(), so.pieces->size(), vertices, so.visual_faces.size(), so.volume, so.com.x(), so.com.y(), so.com.z(),
+                    so.inertia(0, 0), so.inertia(1, 1), so.inertia(2, 2), so.inertia(0, 1), so.inertia(0, 2), so.inertia(1, 2));
       key += o.mesh + "|" + buf;
     }
   }
@@ -239,6 +241,17 @@ std::unique_ptr<SimWorld::Impl> SimWorld::compile(const Shared& S, const std::ve
   const Pose T_park = park >= 0 ? poseOf(I.d->site_xpos + 3 * park, I.d->site_xmat + 9 * park) : makePose(Vec3(0, 0, -100), Mat3::Identity());
   for (size_t k = 0; k < I.obj_body.size(); ++k) {
     const double hz = objects[k].half_size.z();
+    if (objects[k].shape == ObjectShape::kMesh) {
+      // Its <inertial> must be what MuJoCo kept (a robot's <compiler inertiafromgeom="true"> would
+      // make it the geoms' at density 1000, silently), and its drawn mesh must be there.
+      const int b = I.obj_body[k];
+      const bool drawn = m->body_geomnum[b] == static_cast<int>(objects[k].solid->pieces->size()) + 1;
+      if (std::abs(m->body_mass[b] - objects[k].mass) > 1e-9 * std::max(1.0, objects[k].mass) || !drawn)
+        throw InputError(objects[k].mesh, std::string("object kind '") + objects[k].name + "': the compiled model " +
+                                              (drawn ? "weighs " + std::to_string(m->body_mass[b]) + " kg, not its " + std::to_string(objects[k].mass)
+                                                     : "lost its drawn mesh") +
+                                              " (a <compiler> setting of the robot's: inertiafromgeom or discardvisual?)");
+    }
     I.obj_pieces.push_back(objects[k].shape == ObjectShape::kMesh ? objects[k].solid->pieces : nullptr);
     I.obj_half.push_back(objects[k].half_size);
     I.obj_park.push_back(T_park * makePose(Vec3(0.1 * static_cast<double>(k % 5), 0.1 * static_cast<double>(k / 5), hz + 0.001), Mat3::Identity()));

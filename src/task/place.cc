@@ -46,8 +46,15 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   if (ctx.held_shape == ObjectShape::kMesh) {
     // A solid with no symmetry declared is set down on the face it rested on when picked (turning
     // it over needs a regrasp), at the target's yaw: the target is that orientation.
+    // The turn about the vertical that brings its most horizontal axis onto the target's same axis
+    // (yawOf would read the x axis, which may stand upright when it lies on its side).
     const Mat3 R_held = (ctx.robot.fk(q_lift) * ctx.T_tcp_held).linear();
-    T_target.linear() = rotZ(yawOf(T_target.linear())) * rotZ(-yawOf(R_held)) * R_held;
+    const Mat3 R_goal = T_target.linear();
+    int a = 0;
+    for (int k = 1; k < 3; ++k)
+      if (std::abs(R_held(2, k)) < std::abs(R_held(2, a))) a = k;
+    const double turn = std::atan2(R_goal(1, a), R_goal(0, a)) - std::atan2(R_held(1, a), R_held(0, a));
+    T_target.linear() = rotZ(turn) * R_held;
     if (ctx.held_pieces && ctx.target_half_height >= 0) {  // its lowest point on the surface, not its box's
       double low = INFINITY;
       for (const ConvexPiece& piece : *ctx.held_pieces)

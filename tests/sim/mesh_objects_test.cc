@@ -50,7 +50,7 @@ TEST(MeshObjects, CatalogueReadsTheirSolids) {
   const ObjectKind* wedge = c.find("wedge");
   ASSERT_NE(wedge, nullptr);
   EXPECT_NEAR(2 * wedge->half_size.x(), 0.070, 1e-6);
-  EXPECT_LE(wedge->solid->pieces->front().vertices.size(), 64u);
+  EXPECT_EQ(wedge->solid->pieces->front().vertices.size(), 8u) << "a wedge's hull: its eight corners";
 }
 
 TEST(MeshObjects, RestOnTheFloorWhereTheirGeometrySays) {
@@ -194,7 +194,10 @@ TEST(MeshObjects, UrdfObjectsAsTheirMakersGiveThem) {
   urdf("nomesh.urdf", "<link name=\"m\"><collision><geometry><mesh filename=\"package://nowhere/x.stl\"/></geometry></collision></link>");
   rejected("    urdf: nomesh.urdf\n    mass: 0.1\n", "cannot resolve 'package://nowhere/x.stl'");
   urdf("huge.urdf", "<link name=\"m\"><collision><geometry><box size=\"5 5 5\"/></geometry></collision></link>");
-  rejected("    urdf: huge.urdf\n    mass: 0.1\n", "huge.urdf");
+  rejected("    urdf: huge.urdf\n    mass: 0.1\n", "too large");
+  urdf("overlap.urdf", "<link name=\"m\"><collision><geometry><box size=\"0.05 0.05 0.05\"/></geometry></collision>"
+                       "<collision><origin xyz=\"0.02 0.01 0.01\"/><geometry><box size=\"0.05 0.05 0.05\"/></geometry></collision></link>");
+  rejected("    urdf: overlap.urdf\n    density: 500\n", "overlaps");
 }
 
 TEST(MeshObjects, BadMeshKindsAreExitTwoNamingTheFile) {
@@ -211,7 +214,7 @@ TEST(MeshObjects, BadMeshKindsAreExitTwoNamingTheFile) {
   auto r = run("    shape: mesh\n    mesh: open.obj\n    scale: 0.05\n    mass: 0.1\n");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_THAT(r.out, HasSubstr("open.obj"));
-  EXPECT_THAT(r.out, HasSubstr("open"));
+  EXPECT_THAT(r.out, HasSubstr("open: edge"));
   r = run("    shape: mesh\n    mesh: missing.stl\n    mass: 0.1\n");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_THAT(r.out, HasSubstr("missing.stl"));
