@@ -12,6 +12,7 @@
 #include "campaign/trial.h"
 #include "core/error.h"
 #include "perception/camera_perception.h"
+#include "perception/cell_registration.h"
 #include "render/renderer.h"
 #include "sim/hardware.h"
 #include "sim/sim_world.h"
@@ -219,7 +220,14 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
       for (const auto& [width, height] : sizes) {
         const CameraModel pcam = r->camera(*world, e.perception.camera, width, height, e.file);
         const int n = 10;
-        double t_render = 0, t_noise = 0, t_grasps = 0;
+        double t_render = 0, t_noise = 0, t_grasps = 0, t_check = 0;
+        CellRegistrationOptions ro;
+        ro.T_world_bin = cell.perception.T_world_crop;
+        ro.bin_half = cell.perception.crop_half;
+        ro.depth_sigma_k = e.perception.noise.k;
+        ro = checkOptions(ro);
+        const std::vector<Obstacle> statics = world->staticObstacles();
+        bool checked = true;
         CameraPerceptionResult sum;
         size_t found = 0, candidates = 0;
         Rng rng(1);
@@ -233,6 +241,9 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
           Frame f = r->render(*world, pcam, kDepth);
           const auto b = Clock::now();
           applyDepthNoise(f, e.perception.noise, rng);
+          const auto t_check0 = Clock::now();
+          checked = checked && registerCameraToCell(f, statics, ro).ok;
+          t_check += secs(t_check0, Clock::now());
           const auto t_c = Clock::now();
           const CameraPerceptionResult res = detectKnownObjects(f, cell.perception.shapes, co, rng);
           const auto t_d = Clock::now();
@@ -252,7 +263,8 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
         const double detect = t.cloud + t.floor + t.faces + t.fit + t.unexplained;
         o << "  camera perception, " << pcam.width << "x" << pcam.height << " depth, " << pile.active.size()
           << " objects spawned (trial 0's scene): render " << 1e3 * t_render / n << " ms; depth image in, grasps out "
-          << 1e3 * (t_noise + detect + t_grasps) / n << " ms = sensor noise " << 1e3 * t_noise / n << " + cloud " << 1e3 * t.cloud / n
+          << 1e3 * (t_noise + t_check + detect + t_grasps) / n << " ms = sensor noise " << 1e3 * t_noise / n << " + extrinsics check "
+          << 1e3 * t_check / n << (checked ? "" : " (failed)") << " + cloud " << 1e3 * t.cloud / n
           << " + floor " << 1e3 * t.floor / n << " + faces " << 1e3 * t.faces / n << " + fit " << 1e3 * t.fit / n << " + unexplained "
           << 1e3 * t.unexplained / n << " + grasp candidates " << 1e3 * t_grasps / n << " ms (" << found << " objects found, " << candidates
           << " candidates)\n";

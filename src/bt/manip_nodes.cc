@@ -252,6 +252,15 @@ class DetectObject final : public TaskAction {
   }
 };
 
+class RegisterCamera final : public TaskAction {
+ public:
+  using TaskAction::TaskAction;
+  static PortsList providedPorts() { return {}; }
+
+ protected:
+  NodeStatus run(TrialContext& c) override { return statusOf(registerCamera(c)); }
+};
+
 class TriggerPointCloud final : public TaskAction {
  public:
   using TaskAction::TaskAction;
@@ -569,6 +578,11 @@ void registerTaskNodes(Factory& f, TaskNodeEnv& env) {
                     "Perceives the bin (the configured perception mode) and outputs the pose of the object named, or of the "
                     "most accessible one: the first by room to its neighbours that has a grasp passing every check (IK, collision, "
                     "approach, lift), else the first by room. FAILURE when nothing is detected.");
+  add<RegisterCamera>(f, env, "RegisterCamera",
+                      "Camera mode: registers the camera against the cell's static boxes (table, bin, tray) in a fresh depth "
+                      "frame, and perception uses that pose from then on (a camera knocked off its mount). FAILURE when the "
+                      "cell's surfaces do not pin the camera down or fit poorly. SUCCESS with nothing done in the other "
+                      "perception modes.");
   add<PlanAndExecutePick>(f, env, "PlanAndExecutePick",
                           "Plans the pick of the detected object at object_pose (grasp candidates filtered by IK, collision, "
                           "approach and lift; path to the pre-grasp) and executes it: open, move, approach, close, attach, lift. "

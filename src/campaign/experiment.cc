@@ -169,11 +169,13 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
                        "shard is '" + e.shard + "', expected K/N with 0 <= K < N, e.g. 0/4");
     e.shard_index = k, e.shard_count = n;
   }
-  for (FaultKind k : {FaultKind::kCameraBlackout, FaultKind::kDepthDropout})
-    if (e.faults.rate[static_cast<int>(k)] > 0 && e.perception.mode != PerceptionMode::kCamera)
+  for (int i = 0; i < static_cast<int>(FaultKind::kCount); ++i) {
+    const FaultKind k = static_cast<FaultKind>(i);
+    if (faultNeedsCamera(k) && e.faults.rate[static_cast<int>(k)] > 0 && e.perception.mode != PerceptionMode::kCamera)
       throw InputError(e.params.origin(std::string("faults.") + faultKindName(k)).empty() ? path
                                                                                            : e.params.origin(std::string("faults.") + faultKindName(k)),
                        std::string("faults.") + faultKindName(k) + " strikes the camera: it needs perception.mode camera");
+  }
   if (500 % e.render.fps != 0)
     throw InputError(path, "render.fps is " + std::to_string(e.render.fps) +
                                ", expected a divisor of the 500 Hz control rate (e.g. 10, 20, 25, 50, 100)");

@@ -140,6 +140,17 @@ void TrialRecord::describe(RecordArchive& a) {
     d.field("mssd", k.mssd, "m", "BOP's maximum symmetry-aware surface distance (the farthest corner, best symmetry)");
   }, "camera perception: every object each perception found, against the simulator's truth (empty in the other modes)");
   a.field("missed_detections", o.missed_detections, "", "camera perception: objects in the bin a perception did not find, summed over perceptions");
+  size_t n_reg = o.camera_registrations.size();
+  a.list("camera_registrations", n_reg, [&](size_t i, RecordArchive& d) {
+    if (d.reading() && o.camera_registrations.size() <= i) o.camera_registrations.resize(i + 1);
+    RegistrationRecord& k = o.camera_registrations[i];
+    d.field("time", k.time, "s", "simulated, since the trial began");
+    d.field("rotation", k.rotation, "rad", "the correction's angle, from the extrinsics held before");
+    d.field("translation", k.translation, "m", "how far the correction moved the camera's centre");
+    d.field("bin_shift", k.bin_shift, "m", "the farthest the correction moved a point of the bin (its floor's and crop's corners)");
+    d.field("rms", k.rms, "m", "point-to-plane residual of the image's points against the cell's static boxes at the end");
+    d.field("points", k.points, "", "image points matched to the cell's surfaces");
+  }, "camera mode: every registration of the camera against the cell (RegisterCamera) that succeeded");
   a.field("reported_total", o.reported_total, "", "ReportCompletion's total (-1: never reported)");
   size_t n_failures = o.failures.size();
   a.list("failures", n_failures, [&](size_t i, RecordArchive& f) {
@@ -478,6 +489,7 @@ std::string recordsMarkdown() {
   r.o.faults.resize(1);
   r.o.left.resize(1);
   r.o.detections.resize(1);
+  r.o.camera_registrations.resize(1);
   r.o.grasp_selections.resize(1);
   r.o.grasp_selections[0].tried.resize(1);
   r.describe(t);

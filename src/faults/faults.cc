@@ -23,12 +23,17 @@ const char* faultKindName(FaultKind k) {
     case FaultKind::kJointStall: return "joint_stall";
     case FaultKind::kCameraBlackout: return "camera_blackout";
     case FaultKind::kDepthDropout: return "depth_dropout";
+    case FaultKind::kExtrinsicsDrift: return "extrinsics_drift";
     case FaultKind::kCount: break;
   }
   return "?";
 }
 
 bool faultRecoverable(FaultKind k) { return k != FaultKind::kObjectRemoved; }
+
+bool faultNeedsCamera(FaultKind k) {
+  return k == FaultKind::kCameraBlackout || k == FaultKind::kDepthDropout || k == FaultKind::kExtrinsicsDrift;
+}
 
 FaultKind faultKindFromName(const std::string& name) {
   for (int k = 0; k < static_cast<int>(FaultKind::kCount); ++k)
@@ -50,6 +55,8 @@ void FaultOptions::declare(ConfigArchive& a) {
       "probability per trial that the fastest-moving joint stalls for stall_time during a move",
       "camera mode: probability per trial that the first frame is black, with no depth (the camera blacks out once)",
       "camera mode: probability per trial that the first frame has no depth over a rectangle covering 40-70% of the bin's image",
+      "camera mode: probability per trial that the camera is knocked off its mount before its first frame: turned 1-2 degrees about "
+      "an axis drawn at random and moved 2-5 mm, while its extrinsics still say where it was",
   };
   for (int k = 0; k < static_cast<int>(FaultKind::kCount); ++k)
     a.value(faultKindName(static_cast<FaultKind>(k)), rate[k], {0.0, 1.0}, "", what[k]);
@@ -135,6 +142,17 @@ FaultInjector::FaultInjector(const FaultOptions& o, SimWorld& world, uint64_t se
     a.sign = r.uniform() < 0.5 ? -1.0 : 1.0;
     a.fraction = r.uniform();
     a.where = {r.uniform(), r.uniform()};
+    if (static_cast<FaultKind>(k) == FaultKind::kExtrinsicsDrift) {
+      // A knock: 1-2 degrees about an axis uniform on the sphere, 2-5 mm in a direction uniform on it.
+      auto direction = [&r] {
+        const double z = r.uniform(-1.0, 1.0), phi = r.uniform(-M_PI, M_PI), s = std::sqrt(1 - z * z);
+        return Vec3(s * std::cos(phi), s * std::sin(phi), z);
+      };
+      const Vec3 axis = direction();
+      const double angle = r.uniform(1.0, 2.0) * M_PI / 180;
+      const Vec3 shift = r.uniform(0.002, 0.005) * direction();
+      a.knock = makePose(shift, Mat3(Eigen::AngleAxisd(angle, axis)));
+    }
   }
 }
 
@@ -171,6 +189,13 @@ int mostRoom(const std::vector<ObjectState>& objects) {
 }
 
 }  // namespace
+
+void FaultInjector::beforeCapture(TrialContext& ctx, const std::string& camera) {
+  Armed& drift = at(FaultKind::kExtrinsicsDrift);
+  if (!drift.drawn || drift.fired) return;
+  fire(FaultKind::kExtrinsicsDrift, ctx, "perception");
+  world_.setCameraOffset(camera, drift.knock);  // the camera exists: it is about to take a frame
+}
 
 void FaultInjector::onFrame(TrialContext& ctx, Frame& f) {
   // The first frame (before anything else failed) is blacked out; the first frame not blacked out,
@@ -445,7 +470,8 @@ std::vector<FaultRecord> FaultInjector::report(const TrialContext& ctx) const {
       switch (static_cast<FaultKind>(k)) {
         case FaultKind::kPerceptionDropout:
         case FaultKind::kCameraBlackout:
-        case FaultKind::kDepthDropout: needed = "perception"; break;
+        case FaultKind::kDepthDropout:
+        case FaultKind::kExtrinsicsDrift: needed = "perception"; break;
         case FaultKind::kGraspSlip: needed = "place"; break;
         default: needed = "pick"; break;
       }

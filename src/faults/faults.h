@@ -36,11 +36,14 @@ enum class FaultKind {
   kJointStall,           ///< the fastest joint stalls for a moment during a move
   kCameraBlackout,       ///< camera mode: the first frame is black, no depth (the source's camera_blackout)
   kDepthDropout,         ///< camera mode: the first frame has no depth over a region of the bin
+  kExtrinsicsDrift,      ///< camera mode: the camera is knocked off its mount before its first frame
   kCount
 };
 const char* faultKindName(FaultKind k);
 /// Whether a correct recovery exists (kObjectRemoved: noticing and moving on is the correct end).
 bool faultRecoverable(FaultKind k);
+/// Whether kind `k` strikes the camera (it needs perception.mode camera).
+bool faultNeedsCamera(FaultKind k);
 /// The kind of a name faultKindName gives; kCount for an unknown name.
 FaultKind faultKindFromName(const std::string& name);
 
@@ -71,6 +74,7 @@ class FaultInjector final : public FaultHooks {
 
   void onPerception(TrialContext& ctx, PerceptionResult& result) override;
   void onFrame(TrialContext& ctx, Frame& frame) override;
+  void beforeCapture(TrialContext& ctx, const std::string& camera) override;
   bool failPlanning(TrialContext& ctx, const std::string& stage) override;
   void onPlanned(TrialContext& ctx, const Plan& plan) override;
   void beforeStep(TrialContext& ctx) override;
@@ -91,6 +95,7 @@ class FaultInjector final : public FaultHooks {
     double fraction = 0;               // a dropout's size, in [0, 1) of its range
     std::array<double, 2> where{0, 0};  // a dropout's place, in [0, 1) of the room left
     int object = -1;
+    Pose knock = Pose::Identity();     // a knocked camera's pose from its mount
     std::string milestone; // what recovering from it means
   };
   void fire(FaultKind k, TrialContext& ctx, const std::string& stage);

@@ -19,7 +19,7 @@ void PerceptionOptions::declare(ConfigArchive& a) {
           "camera mode: a stereo camera's depth noise, sigma = k z^2 (0.0015: 1.5 mm at 1 m, 2.4 mm at the bin's 1.27 m); 0: none");
   a.path("extrinsics", extrinsics,
          "camera mode: the camera's pose as `minimanip calibrate` wrote it (results/calibration/<camera>_extrinsics.yaml); "
-         "simulator: the simulator's true pose");
+         "simulator: where the scene mounts the camera (a camera knocked off its mount, the extrinsics_drift fault, is elsewhere)");
   a.value("crop_height", crop_height, {0.0, 2.0}, "m",
           "what the sensor looks at rises this far above the bin floor (objects whose centre is lower count as in the bin; the "
           "camera's points higher are left out); 0: three of the tallest of the experiment's object kinds stacked (a pile), at "
@@ -27,6 +27,11 @@ void PerceptionOptions::declare(ConfigArchive& a) {
   a.value("max_missing_depth", max_missing_depth, {0.0, 1.0}, "",
           "camera mode: a frame with no depth over more than this share of the bin's floor area is not perceived (a blackout, a "
           "dropout): the perception fails saying so, and a recovering tree looks again");
+  a.value("max_extrinsics_error", max_extrinsics_error, {0.0, 0.05}, "m",
+          "camera mode: each frame is checked against the cell's known static parts (the camera registered against them, "
+          "perception/cell_registration.h); if that moves a point of the bin further than this from where the extrinsics put it, "
+          "the camera has moved (knocked off its mount): the perception fails saying so, and a recovering tree registers the "
+          "camera again (RegisterCamera); 0: no check");
   a.value("edge_dropout", noise.edge_dropout, {0.0, 1.0}, "",
           "camera mode: the chance a pixel at a depth edge (its 3x3 neighbourhood spanning more than 1 cm) has no depth, as stereo matching fails there");
 }

@@ -33,7 +33,11 @@ struct PerceptionOptions {
   int camera_width = 1280, camera_height = 960;  ///< [px]
   DepthNoise noise;  ///< the sensor's (applied where the image is made)
   double max_missing_depth = 0.25;  ///< a frame with no depth over more than this share of the bin is not perceived
-  std::string extrinsics = "simulator";  ///< a file from `minimanip calibrate`, or "simulator": the true camera pose
+  /// [m] the camera registered against the cell in a frame moves a point of the bin (its floor's
+  /// and its crop's corners) further than this from where the extrinsics put it: the camera has
+  /// moved (knocked off its mount), and the frame is not perceived.
+  double max_extrinsics_error = 0.002;
+  std::string extrinsics = "simulator";  ///< a file from `minimanip calibrate`, or "simulator": where the scene mounts the camera
   bool calibrated = false;  ///< T_world_camera holds the file's extrinsics
   Pose T_world_camera = Pose::Identity();
   std::vector<KnownShape> shapes;  ///< the kinds that can be in the bin (the experiment's catalogue kinds)

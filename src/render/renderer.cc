@@ -170,6 +170,18 @@ Frame Renderer::render(const SimWorld& world, const CameraModel& camera, unsigne
   Frame f;
   f.camera = camera;
   f.camera.T_world_camera = cameraPose(d, cam.fixedcamid);
+  // A camera knocked off its mount draws from where it is; the frame reports the mount's pose
+  // (mj_camlight recomputes the derived pose at the next step or render).
+  const Pose offset = world.cameraOffset(cam.fixedcamid);
+  if (offset.matrix() != Pose::Identity().matrix()) {
+    Pose T = f.camera.T_world_camera * offset;
+    T.linear().col(1) *= -1;
+    T.linear().col(2) *= -1;
+    for (int r = 0; r < 3; ++r) {
+      d->cam_xpos[3 * cam.fixedcamid + r] = T.translation()[r];
+      for (int c = 0; c < 3; ++c) d->cam_xmat[9 * cam.fixedcamid + 3 * r + c] = T.linear()(r, c);
+    }
+  }
   f.time = d->time;
   const mjrRect viewport = {0, 0, w, h};
   const size_t n = static_cast<size_t>(w) * static_cast<size_t>(h);

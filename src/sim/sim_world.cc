@@ -106,6 +106,7 @@ void SimWorld::reset(const VecX& q_arm) {
   I.collision_log.clear();
   I.unstable = false;
   I.instability.clear();
+  I.camera_offsets.clear();
   lastMujocoWarning().clear();
   mj_forward(I.m, I.d);
 }
@@ -428,6 +429,18 @@ std::pair<Pose, Vec3> SimWorld::site(const std::string& name) const {
 }
 
 std::string mujocoVersion() { return std::to_string(mj_version() / 100) + "." + std::to_string(mj_version() / 10 % 10) + "." + std::to_string(mj_version() % 10); }
+
+Pose SimWorld::cameraOffset(int cam) const {
+  const auto it = impl_->camera_offsets.find(cam);
+  return it == impl_->camera_offsets.end() ? Pose::Identity() : it->second;
+}
+
+bool SimWorld::setCameraOffset(const std::string& name, const Pose& T_mount_camera) {
+  const int cam = mj_name2id(impl_->m, mjOBJ_CAMERA, name.c_str());
+  if (cam < 0) return false;
+  impl_->camera_offsets[cam] = T_mount_camera;
+  return true;
+}
 
 std::vector<Obstacle> SimWorld::staticObstacles() const {
   const Impl& I = *impl_;

@@ -209,6 +209,12 @@ class SimWorld {
   // For the renderer (render/) only: the current model and its data as they are now (the renderer
   // reads them), and each geom's SegmentLabel.
   const mjModel_* mujocoModel() const;
+  /// The camera of id `cam` knocked off its mount (a fault's doing): the renderer draws from
+  /// T_mount * T_mount_camera (OpenCV's camera frame), while a capture still reports the mount's pose
+  /// (what the cell's description says). Identity when it sits on its mount; cleared by reset().
+  Pose cameraOffset(int cam) const;
+  /// False when the scene has no camera `name`.
+  bool setCameraOffset(const std::string& name, const Pose& T_mount_camera);
   mjData_* mujocoData() const;
   /// The current model's number, unique in the process (caches key on it, not on the pointer).
   uint64_t modelSerial() const;

@@ -59,6 +59,7 @@ struct SimWorld::Impl {
   std::vector<std::string> collision_log;
   bool unstable = false;
   std::string instability;
+  std::map<int, Pose> camera_offsets;  ///< a knocked camera's pose from its mount (setCameraOffset), by camera id
   // scratch
   std::vector<mjtNum> scratch_a, scratch_b, scratch_jac;
   std::vector<double>* ctrl_log = nullptr;

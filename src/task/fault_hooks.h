@@ -17,7 +17,10 @@ class FaultHooks {
   virtual ~FaultHooks() = default;
   /// A perception's result before the robot sees it (may drop, shift or add objects).
   virtual void onPerception(TrialContext& ctx, PerceptionResult& result) = 0;
-  /// Camera mode: the camera's frame before perception reads it (may black it out or lose depth).
+  /// Camera mode: before the camera `camera` takes a frame (may knock it off its mount).
+  virtual void beforeCapture(TrialContext& ctx, const std::string& camera) = 0;
+  /// Camera mode: the camera's frame before perception reads it (may black it out or lose depth;
+  /// a frame taken to register the camera against the cell is not offered).
   virtual void onFrame(TrialContext& ctx, Frame& frame) = 0;
   /// Before a joint-space planning call of `stage`: true makes it fail.
   virtual bool failPlanning(TrialContext& ctx, const std::string& stage) = 0;

@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "planning/blend.h"
 #include "planning/chomp.h"
+#include "perception/cell_registration.h"
 #include "planning/time_parameterization.h"
 #include "sim/hardware.h"
 #include "task/plan_steps.h"
@@ -18,6 +19,45 @@ namespace mm {
 // ---- perception ------------------------------------------------------------------------------
 
 namespace {
+
+CellRegistrationOptions registrationOptions(const TrialContext& ctx) {
+  CellRegistrationOptions ro;
+  ro.T_world_bin = ctx.perception.T_world_crop;
+  ro.bin_half = ctx.perception.crop_half;
+  ro.depth_sigma_k = ctx.perception.noise.k;
+  return ro;
+}
+
+// [m] the farthest a point of the bin (its floor's and its crop's corners) is moved by the camera
+// moving from `from` to `to`: what a point seen there is moved by.
+double binDisplacement(const TrialContext& ctx, const Pose& from, const Pose& to) {
+  const PerceptionOptions& o = ctx.perception;
+  const Pose move = to * from.inverse();
+  double worst = 0;
+  for (double sx : {-1.0, 1.0})
+    for (double sy : {-1.0, 1.0})
+      for (double z : {0.0, o.crop_height}) {
+        const Vec3 p = o.T_world_crop * Vec3(sx * o.crop_half.x(), sy * o.crop_half.y(), z);
+        worst = std::max(worst, (move * p - p).norm());
+      }
+  return worst;
+}
+
+// Camera mode: a frame of the perception's camera, its extrinsics those the robot holds: the last
+// registration against the cell, else the calibration file's, else the mount's in the scene. The
+// faults that strike frames (a blackout, a dropout) strike those perception reads.
+bool captureFrame(TrialContext& ctx, Frame& frame, std::string* why, bool for_perception) {
+  const PerceptionOptions& o = ctx.perception;
+  if (ctx.faults) ctx.faults->beforeCapture(ctx, o.camera);
+  if (!ctx.hw.capture(o.camera, o.camera_width, o.camera_height, frame, why)) {
+    *why = "camera '" + o.camera + "': " + *why;
+    return false;
+  }
+  if (ctx.faults && for_perception) ctx.faults->onFrame(ctx, frame);
+  if (ctx.T_world_camera_registered) frame.camera.T_world_camera = *ctx.T_world_camera_registered;
+  else if (o.calibrated) frame.camera.T_world_camera = o.T_world_camera;  // where calibration says it is
+  return true;
+}
 
 // Camera mode: the camera's depth image through detectKnownObjects. Every detection is what the robot
 // knows, under an id of its own; a false one included (the robot finds out by trying). The
@@ -29,12 +69,29 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
   PerceptionResult p;
   Frame frame;
   std::string why;
-  if (!ctx.hw.capture(o.camera, o.camera_width, o.camera_height, frame, &why)) {
-    p.reason = "camera '" + o.camera + "': " + why;
+  if (!captureFrame(ctx, frame, &why, true)) {
+    p.reason = why;
     return p;
   }
-  if (ctx.faults) ctx.faults->onFrame(ctx, frame);
-  if (o.calibrated) frame.camera.T_world_camera = o.T_world_camera;  // where calibration says it is
+  // The camera where its extrinsics put it, as the cell's known parts see it (the registration,
+  // started from the extrinsics). A frame with too little depth to tell (a blackout) is left to the
+  // perception, which refuses it for its own reasons.
+  if (o.max_extrinsics_error > 0) {
+    const CellRegistration check = registerCameraToCell(frame, ctx.statics, checkOptions(registrationOptions(ctx)));
+    char buf[300];
+    if (!check.ok && !check.blind) {
+      p.reason = "the camera cannot be checked against the cell's known parts (" + check.reason + "): it may have moved";
+      return p;
+    }
+    const double error = check.ok ? binDisplacement(ctx, frame.camera.T_world_camera, check.T_world_camera) : 0.0;
+    if (error > o.max_extrinsics_error) {
+      std::snprintf(buf, sizeof buf, "the cell's known parts put the camera %.2f deg and %.1f mm from its extrinsics, which moves "
+                    "what it sees in the bin by up to %.1f mm: it has moved (register it again)", check.rotation * 180 / M_PI,
+                    1e3 * check.translation, 1e3 * error);
+      p.reason = buf;
+      return p;
+    }
+  }
   CameraPerceptionOptions co;
   co.T_world_crop = o.T_world_crop;
   co.crop_half = o.crop_half;
@@ -111,6 +168,29 @@ Failure detectObjects(TrialContext& ctx) {
   const bool first = ctx.objects.empty() && ctx.picked.empty();
   ctx.objects = p.objects;
   if (first) ctx.out.objects_in_bin = static_cast<int>(ctx.objects.size());
+  return {};
+}
+
+Failure registerCamera(TrialContext& ctx) {
+  const PerceptionOptions& o = ctx.perception;
+  if (o.mode != PerceptionMode::kCamera) return {};  // the simulator is the sensor: no camera to register
+  StageRecord& st = ctx.stage("registration");
+  const auto t = Clock::now();
+  Frame frame;
+  std::string why;
+  CellRegistration r;
+  if (captureFrame(ctx, frame, &why, false)) {
+    r = registerCameraToCell(frame, ctx.statics, registrationOptions(ctx));
+  } else {
+    r.reason = why;
+  }
+  st.compute_seconds = since(t);
+  ctx.out.perception_time += st.compute_seconds;
+  if (!r.ok) return ctx.fail({"registration", FailureKind::kPerception, "registering the camera against the cell: " + r.reason});
+  ctx.T_world_camera_registered = r.T_world_camera;
+  ctx.out.camera_registrations.push_back(
+      {ctx.simTime(), r.rotation, r.translation, binDisplacement(ctx, frame.camera.T_world_camera, r.T_world_camera), r.rms, r.points});
+  ctx.milestone("registration");
   return {};
 }
 

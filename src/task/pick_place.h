@@ -16,6 +16,10 @@ namespace mm {
 
 /// Perceives the objects in the bin into ctx.objects (without those already picked).
 Failure detectObjects(TrialContext& ctx);
+/// Camera mode: the camera registered against the cell's static boxes from a fresh frame
+/// (perception/cell_registration.h); perception uses that pose from then on. Nothing to do (no
+/// failure) in the other modes.
+Failure registerCamera(TrialContext& ctx);
 /// Indices into ctx.objects of the objects not yet picked, the most room to a neighbour first
 /// (a stable order for equal room).
 std::vector<int> objectsByRoom(const TrialContext& ctx);

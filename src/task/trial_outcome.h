@@ -24,6 +24,16 @@ struct DetectionRecord {
   double mssd = 0;            ///< [m] BOP's maximum symmetry-aware surface distance
 };
 
+/// The camera registered again against the cell (RegisterCamera): the correction it found.
+struct RegistrationRecord {
+  double time = 0;         ///< [s] simulated, since the trial began
+  double rotation = 0;     ///< [rad] the correction's angle, from the extrinsics held before
+  double translation = 0;  ///< [m] how far it moved the camera's centre
+  double bin_shift = 0;    ///< [m] the farthest it moved a point of the bin (what the camera sees there)
+  double rms = 0;          ///< [m] the cell's surfaces against the image's points at the end
+  int points = 0;          ///< points matched to the cell's surfaces
+};
+
 /// One object the robot let go of, and where it ended up.
 struct PickRecord {
   int object = -1;                 ///< index in the scene's object pool
@@ -127,6 +137,7 @@ struct TrialOutcome {
   std::vector<GraspSelection> grasp_selections;  ///< every grasp selection, in order
   std::vector<DetectionRecord> detections;  ///< camera mode: every detection of every perception
   int missed_detections = 0;      ///< camera mode: objects in the bin a perception did not find
+  std::vector<RegistrationRecord> camera_registrations;  ///< camera mode: every RegisterCamera that succeeded
   std::vector<LeftRecord> left;   ///< every object left in the bin at the end
   std::vector<RecordedFailure> failures;
   std::vector<FaultRecord> faults;  ///< injected faults

@@ -107,7 +107,7 @@ TEST_F(Config, EveryExperimentKeyRoundTripsThroughYamlSetAndTheResolvedFile) {
     ASSERT_NE(v, d.default_value);
     const bool list = d.isList();
     // A key that needs another (a camera fault: camera mode) gets it alongside.
-    const bool camera = d.key == "faults.camera_blackout" || d.key == "faults.depth_dropout";
+    const bool camera = d.key == "faults.camera_blackout" || d.key == "faults.depth_dropout" || d.key == "faults.extrinsics_drift";
     const std::string also = camera ? "perception:\n  mode: camera\n" : "";
     // In a file: the ParamSet holds it and the struct field got it.
     Experiment from_file = loadExperiment(file("one.yaml", yamlOf(d.key, v, list) + also), {});

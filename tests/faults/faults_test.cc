@@ -50,7 +50,7 @@ TEST(FaultKinds, NamesRoundTripAndOnlyObjectRemovedIsUnrecoverable) {
 }
 
 TEST(FaultKinds, CameraKindsNeedCameraMode) {
-  for (const char* kind : {"camera_blackout", "depth_dropout"}) {
+  for (const char* kind : {"camera_blackout", "depth_dropout", "extrinsics_drift"}) {
     try {
       loadExperiment("experiments/faults.yaml", {std::string("faults.") + kind + "=0.1"});
       ADD_FAILURE() << kind << " accepted with ground-truth perception";
@@ -65,7 +65,7 @@ TEST(FaultKinds, CameraKindsNeedCameraMode) {
 FaultStats campaignWithOnly(FaultKind kind, const std::string& tree, int trials, CampaignSummary* summary = nullptr) {
   std::vector<std::string> sets = {"trials=" + std::to_string(trials), "seed=3", "progress=none", "bt.log=none",
                                    "tree=" + tree};
-  if (kind == FaultKind::kCameraBlackout || kind == FaultKind::kDepthDropout) sets.push_back("perception.mode=camera");  // they strike the camera
+  if (faultNeedsCamera(kind)) sets.push_back("perception.mode=camera");
   for (int k = 0; k < static_cast<int>(FaultKind::kCount); ++k)
     sets.push_back(std::string("faults.") + faultKindName(static_cast<FaultKind>(k)) + "=" +
                    (static_cast<FaultKind>(k) == kind ? "1" : "0"));

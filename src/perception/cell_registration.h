@@ -1,0 +1,62 @@
+// The camera registered against the cell's known geometry: a fixed camera that was bumped (its
+// mount knocked by millimetres and a degree or two) no longer sits where its extrinsics put it, and
+// every point it sees lands off by up to centimetres. The cell's static parts (table, bins, tray:
+// boxes the planner knows) are where the cell's description puts them, so the depth image itself
+// says where the camera is: a point-to-plane ICP of the image's points against those boxes'
+// surfaces, over the camera's six degrees of freedom. The table's top pins height and tilt; the
+// walls' faces and top edges pin x, y and the turn about the vertical.
+//   points -> world through the current estimate -> those inside the bin above its floor dropped
+//   (objects, not the cell) -> each matched to the nearest point of a box's surface (among the few
+//   boxes near it at the start), kept within a gate that narrows (5 cm down to 5 mm) -> a
+//   Gauss-Newton step of the small rotation about the camera's centre and translation,
+//   Huber-weighted -> until the step is below the tolerance.
+// The same fit, started from the extrinsics with a narrow gate and a few thousand points, checks
+// each frame: a correction beyond a few tenths of a degree or a few millimetres means the camera
+// has moved.
+// The fit is refused when too few points match, their residual is large, or the cell's geometry
+// leaves a direction of motion unconstrained (the smallest eigenvalue of the normal equations).
+#pragma once
+#include <string>
+#include <vector>
+
+#include "core/camera.h"
+#include "core/geometry.h"
+
+namespace mm {
+
+struct CellRegistrationOptions {
+  Pose T_world_bin = Pose::Identity();  ///< the bin: frame on its floor (what is inside, above it, is not the cell)
+  Vec3 bin_half = Vec3::Zero();         ///< its footprint half sizes (x, y) [m]
+  int points = 20000;                   ///< about this many of the image's points, spread evenly
+  double first_gate = 0.05;             ///< [m] points farther from the cell's surfaces are not matched, at first
+  double last_gate = 0.0125;            ///< [m] the gate halves down to this, each time the fit has settled
+  int max_iterations = 100;
+  double tolerance = 2e-5;              ///< [m] a fit has settled at a gate when a step moves the bin's corners less
+  int min_points = 1000;                ///< matched points needed
+  double depth_sigma_k = 0.0015;        ///< the sensor's depth noise, sigma = k z^2 [1/m]: the residual allowed is 1.5 sigma + 1 mm
+  double huber = 0.002;                 ///< [m]
+};
+
+struct CellRegistration {
+  bool ok = false;
+  bool blind = false;  ///< too few points with depth to tell anything (a blackout)
+  std::string reason;
+  Pose T_world_camera = Pose::Identity();  ///< the camera where the cell's geometry puts it
+  double rotation = 0;     ///< [rad] the correction's angle, from the extrinsics it started from
+  double translation = 0;  ///< [m] how far the camera's centre moved from where they put it
+  int points = 0;          ///< matched at the end
+  double rms = 0;          ///< [m] their point-to-plane residual
+  int iterations = 0;
+  double max_rms = 0;      ///< [m] the residual allowed, from the sensor's noise at the points' depths
+};
+
+/// The same options for the check of a frame: started near the extrinsics (matched along the
+/// rays from the first iteration), 3000 points and the pixels at depth jumps, settled at 0.1 mm.
+CellRegistrationOptions checkOptions(CellRegistrationOptions options);
+
+/// Registers frame's camera (its depth; frame.camera.T_world_camera the starting extrinsics)
+/// against the static boxes of the cell (other shapes are not used).
+CellRegistration registerCameraToCell(const Frame& frame, const std::vector<Obstacle>& statics,
+                                      const CellRegistrationOptions& options);
+
+}  // namespace mm
