@@ -172,6 +172,19 @@ std::shared_ptr<const ObjectSolid> urdfSolid(const UrdfObject& u, int hull_verti
   return makeSolid(hulls, u.visual.empty() ? as_meshes : u.visual, all.volume, all.centroid, all.inertia * (mass / all.volume));
 }
 
+// The half sizes of a solid's bounding box (its pieces' vertices, in its frame at their centre).
+Vec3 boundingHalfSize(const ObjectSolid& solid) {
+  Vec3 lo = Vec3::Constant(INFINITY), hi = -lo;
+  for (const ConvexPiece& piece : *solid.pieces)
+    for (const Vec3& v : piece.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+  return (hi - lo) / 2;
+}
+
+// A file a catalogue names: relative to the catalogue's folder unless absolute.
+std::string besideCatalogue(const std::string& catalogue, const std::filesystem::path& file) {
+  return (file.is_absolute() ? file : std::filesystem::path(catalogue).parent_path() / file).lexically_normal().string();
+}
+
 }  // namespace
 
 ObjectCatalogue loadObjectCatalogue(const std::string& path) {
@@ -214,8 +227,7 @@ ObjectCatalogue loadObjectCatalogue(const std::string& path) {
     }
     if (urdf) {
       if (n["size"]) throw InputError(r.at(n["size"]), "object kind '" + k.name + "': a URDF kind's size comes from its file");
-      const std::filesystem::path file = r.text(n, "urdf");
-      k.mesh = (file.is_absolute() ? file : std::filesystem::path(path).parent_path() / file).lexically_normal().string();
+      k.mesh = besideCatalogue(path, r.text(n, "urdf"));
       try {
         const UrdfObject u = loadUrdfObject(k.mesh);
         if (u.has_inertial && (n["mass"] || n["density"]))
@@ -229,16 +241,12 @@ ObjectCatalogue loadObjectCatalogue(const std::string& path) {
       } catch (const InputError& e) {  // the URDF's fault, and where the catalogue names it
         throw InputError(r.at(n["urdf"]), "object kind '" + k.name + "': " + e.what());
       }
-      Vec3 lo = Vec3::Constant(INFINITY), hi = -lo;
-      for (const ConvexPiece& piece : *k.solid->pieces)
-        for (const Vec3& v : piece.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
-      k.half_size = (hi - lo) / 2;
+      k.half_size = boundingHalfSize(*k.solid);
     } else if (k.shape == ObjectShape::kMesh) {
       if (n["size"]) throw InputError(r.at(n["size"]), "object kind '" + k.name + "': a mesh kind's size comes from its file (use scale)");
       if (n["mass"].IsDefined() == n["density"].IsDefined())
         throw InputError(r.at(n), "object kind '" + k.name + "': a mesh kind expects either mass [kg] or density [kg/m^3]");
-      const std::filesystem::path file = r.text(n, "mesh");
-      k.mesh = (file.is_absolute() ? file : std::filesystem::path(path).parent_path() / file).lexically_normal().string();
+      k.mesh = besideCatalogue(path, r.text(n, "mesh"));
       if (const YAML::Node sc = n["scale"]) {
         if (sc.IsSequence()) {
           const auto v = r.vec3(n, "scale");
@@ -257,10 +265,7 @@ ObjectCatalogue loadObjectCatalogue(const std::string& path) {
       } catch (const InputError& e) {  // the mesh's fault, and where the catalogue names it
         throw InputError(r.at(n["mesh"]), "object kind '" + k.name + "': " + e.what());
       }
-      Vec3 lo = Vec3::Constant(INFINITY), hi = -lo;
-      for (const ConvexPiece& piece : *k.solid->pieces)
-        for (const Vec3& v : piece.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
-      k.half_size = (hi - lo) / 2;
+      k.half_size = boundingHalfSize(*k.solid);
     } else {
       const auto size = r.vec3(n, "size");
       for (int i = 0; i < 3; ++i) {
