@@ -98,8 +98,9 @@ CellRegistration registerCameraToCell(const Frame& frame, const std::vector<Obst
   // every other pixel where the depth jumps (the walls' faces and top edges, the table's edge):
   // what pins the camera's x, y and turn about the vertical is there, a few hundredths of the image.
   std::vector<Vec3> pc;
-  const int stride = std::max(1, static_cast<int>(std::lround(std::sqrt(static_cast<double>(w) * h / std::max(1, o.points)))));
-  const int fine = std::max(1, stride / 4);
+  const int coarse = std::max(1, static_cast<int>(std::lround(std::sqrt(static_cast<double>(w) * h / std::max(1, o.points)))));
+  const int fine = std::max(1, coarse / 4);
+  const int stride = std::max(1, coarse / fine) * fine;  // a multiple of the fine step: the even points lie on its grid
   auto depth = [&](int u, int v) {
     return u < 0 || v < 0 || u >= w || v >= h ? 0.0f : frame.depth[static_cast<size_t>(v) * static_cast<size_t>(w) + static_cast<size_t>(u)];
   };
@@ -115,9 +116,14 @@ CellRegistration registerCameraToCell(const Frame& frame, const std::vector<Obst
       }
       if (keep) pc.push_back(Vec3((u - cam.cx) / cam.fx * z, (v - cam.cy) / cam.fy * z, z));
     }
-  if (static_cast<int>(pc.size()) < o.min_points) {
-    res.blind = true;
-    res.reason = "the camera sees too little (" + std::to_string(pc.size()) + " points with depth)";
+  long with_depth = 0;
+  for (const float z : frame.depth) with_depth += z > 0;
+  if (with_depth < static_cast<long>(frame.depth.size()) / 10 || static_cast<int>(pc.size()) < o.min_points) {
+    res.blind = with_depth < static_cast<long>(frame.depth.size()) / 10;  // a blackout: nothing to tell by
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "the camera sees too little (%.0f%% of the image with depth, %zu points)",
+                  100.0 * static_cast<double>(with_depth) / static_cast<double>(frame.depth.size()), pc.size());
+    res.reason = buf;
     return res;
   }
   Pose T = cam.T_world_camera;
@@ -147,7 +153,7 @@ CellRegistration registerCameraToCell(const Frame& frame, const std::vector<Obst
   if (o.bin_half.x() > 0) {
     for (double sx : {-1.0, 1.0})
       for (double sy : {-1.0, 1.0})
-        for (double z : {0.0, 0.1}) region.push_back(o.T_world_bin * Vec3(sx * o.bin_half.x(), sy * o.bin_half.y(), z));
+        for (double z : {0.0, o.bin_height}) region.push_back(o.T_world_bin * Vec3(sx * o.bin_half.x(), sy * o.bin_half.y(), z));
   } else {
     Vec3 mean = Vec3::Zero();
     for (const Vec3& p : pc) mean += T * p;
@@ -170,7 +176,9 @@ CellRegistration registerCameraToCell(const Frame& frame, const std::vector<Obst
       bool over_bin = false;  // over the bin's footprint, where an object can stand against a wall
       if (o.bin_half.x() > 0) {
         const Vec3 b = T_bin_world * p;
-        if (std::abs(b.x()) < o.bin_half.x() - inset && std::abs(b.y()) < o.bin_half.y() - inset && b.z() > inset) continue;
+        // Above the floor by more than the noise allows (3 sigma, at least 4 mm): an object.
+        const double above = std::max(inset, 3 * o.depth_sigma_k * pc[i].z() * pc[i].z());
+        if (std::abs(b.x()) < o.bin_half.x() - inset && std::abs(b.y()) < o.bin_half.y() - inset && b.z() > above) continue;
         over_bin = std::abs(b.x()) < o.bin_half.x() && std::abs(b.y()) < o.bin_half.y();
       }
       // Far off (wide gates): the nearest surface. Near (narrow gates): the surface the pixel's
@@ -272,11 +280,13 @@ CellRegistration registerCameraToCell(const Frame& frame, const std::vector<Obst
   res.rotation = Eigen::AngleAxisd(T.linear() * cam.T_world_camera.linear().transpose()).angle();
   res.translation = (T.translation() - cam.T_world_camera.translation()).norm();
   // Every direction of the camera's motion must be pinned down by some surface: the smallest
-  // eigenvalue of the normal equations per point (rotations weighted by their lever, ~1 m).
-  const double weakest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(H / res.points).eigenvalues()(0);
+  // eigenvalue of the normal equations against the largest (rotations weighted by their lever, ~1 m).
+  const Eigen::Matrix<double, 6, 1> eig = Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(H / res.points).eigenvalues();
+  const double weakest = eig(0) / std::max(eig(5), 1e-300);
   char buf[200];
-  if (weakest < 1e-6) {
-    std::snprintf(buf, sizeof buf, "the cell's surfaces in view leave the camera's pose unconstrained (weakest direction %.1e)", weakest);
+  if (weakest < 1e-5) {
+    std::snprintf(buf, sizeof buf, "the cell's surfaces in view leave the camera's pose unconstrained (weakest direction %.1e of the strongest)",
+                  weakest);
     res.reason = buf;
   } else if (res.rms > res.max_rms) {
     std::snprintf(buf, sizeof buf, "the cell's surfaces fit the image only to %.1f mm (expected at most %.1f mm at this noise)",

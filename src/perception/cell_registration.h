@@ -5,16 +5,19 @@
 // says where the camera is: a point-to-plane ICP of the image's points against those boxes'
 // surfaces, over the camera's six degrees of freedom. The table's top pins height and tilt; the
 // walls' faces and top edges pin x, y and the turn about the vertical.
-//   points -> world through the current estimate -> those inside the bin above its floor dropped
-//   (objects, not the cell) -> each matched to the nearest point of a box's surface (among the few
-//   boxes near it at the start), kept within a gate that narrows (5 cm down to 5 mm) -> a
-//   Gauss-Newton step of the small rotation about the camera's centre and translation,
-//   Huber-weighted -> until the step is below the tolerance.
-// The same fit, started from the extrinsics with a narrow gate and a few thousand points, checks
-// each frame: a correction beyond a few tenths of a degree or a few millimetres means the camera
-// has moved.
-// The fit is refused when too few points match, their residual is large, or the cell's geometry
-// leaves a direction of motion unconstrained (the smallest eigenvalue of the normal equations).
+//   points (spread evenly, and every pixel at a depth jump on a finer grid) -> world through the
+//   current estimate -> those over the bin above its floor dropped (objects, not the cell) -> each
+//   matched to a box's surface: the nearest one while the gate is wide (5 cm, 2.5 cm), the one its
+//   pixel's ray meets first at the last gate (1.25 cm), a point just outside a box that its ray
+//   does not explain to that box's nearest point -> a Gauss-Newton step of the small rotation about
+//   the camera's centre and translation, Huber-weighted -> at each gate until a step moves the
+//   bin's corners less than the tolerance (matches that keep cycling: 15 iterations, and the last
+//   step within ten times the tolerance).
+// The same fit, started from the extrinsics held with the last gate and fewer points, checks each
+// frame: a correction moving the bin by more than a few millimetres means the camera has moved.
+// The fit is refused when too few points match, their residual is large, it does not settle, or
+// the cell's geometry leaves a direction of motion unconstrained (the normal equations' smallest
+// eigenvalue against their largest).
 #pragma once
 #include <string>
 #include <vector>
@@ -27,6 +30,7 @@ namespace mm {
 struct CellRegistrationOptions {
   Pose T_world_bin = Pose::Identity();  ///< the bin: frame on its floor (what is inside, above it, is not the cell)
   Vec3 bin_half = Vec3::Zero();         ///< its footprint half sizes (x, y) [m]
+  double bin_height = 0.1;              ///< [m] how high what is seen in it reaches (the crop's height)
   int points = 20000;                   ///< about this many of the image's points, spread evenly
   double first_gate = 0.05;             ///< [m] points farther from the cell's surfaces are not matched, at first
   double last_gate = 0.0125;            ///< [m] the gate halves down to this, each time the fit has settled
@@ -39,7 +43,7 @@ struct CellRegistrationOptions {
 
 struct CellRegistration {
   bool ok = false;
-  bool blind = false;  ///< too few points with depth to tell anything (a blackout)
+  bool blind = false;  ///< less than a tenth of the image has depth: nothing to tell by (a blackout)
   std::string reason;
   Pose T_world_camera = Pose::Identity();  ///< the camera where the cell's geometry puts it
   double rotation = 0;     ///< [rad] the correction's angle, from the extrinsics it started from

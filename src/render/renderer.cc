@@ -238,6 +238,7 @@ Frame Renderer::render(const SimWorld& world, const CameraModel& camera, unsigne
     f.segmentation.resize(n);
     flip_rows(flat.data(), f.segmentation.data(), 1);
   }
+  if (offset.matrix() != Pose::Identity().matrix()) mj_camlight(m, d);  // the derived pose back on its mount for other readers
   return f;
 }
 

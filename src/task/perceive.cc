@@ -25,6 +25,7 @@ CellRegistrationOptions registrationOptions(const TrialContext& ctx) {
   ro.T_world_bin = ctx.perception.T_world_crop;
   ro.bin_half = ctx.perception.crop_half;
   ro.depth_sigma_k = ctx.perception.noise.k;
+  ro.bin_height = ctx.perception.crop_height;
   return ro;
 }
 
@@ -43,8 +44,9 @@ double binDisplacement(const TrialContext& ctx, const Pose& from, const Pose& to
   return worst;
 }
 
-// Camera mode: a frame of the perception's camera, its extrinsics those the robot holds: the last
-// registration against the cell, else the calibration file's, else the mount's in the scene. The
+// Camera mode: a frame of the perception's camera, its extrinsics those the robot holds: the
+// calibration file's, else the mount's in the scene, corrected by the last registration against
+// the cell. The
 // faults that strike frames (a blackout, a dropout) strike those perception reads.
 bool captureFrame(TrialContext& ctx, Frame& frame, std::string* why, bool for_perception) {
   const PerceptionOptions& o = ctx.perception;
@@ -54,8 +56,8 @@ bool captureFrame(TrialContext& ctx, Frame& frame, std::string* why, bool for_pe
     return false;
   }
   if (ctx.faults && for_perception) ctx.faults->onFrame(ctx, frame);
-  if (ctx.T_world_camera_registered) frame.camera.T_world_camera = *ctx.T_world_camera_registered;
-  else if (o.calibrated) frame.camera.T_world_camera = o.T_world_camera;  // where calibration says it is
+  if (o.calibrated) frame.camera.T_world_camera = o.T_world_camera;  // where calibration says it is
+  if (ctx.T_extrinsics_registered) frame.camera.T_world_camera = frame.camera.T_world_camera * *ctx.T_extrinsics_registered;
   return true;
 }
 
@@ -187,7 +189,10 @@ Failure registerCamera(TrialContext& ctx) {
   st.compute_seconds = since(t);
   ctx.out.perception_time += st.compute_seconds;
   if (!r.ok) return ctx.fail({"registration", FailureKind::kPerception, "registering the camera against the cell: " + r.reason});
-  ctx.T_world_camera_registered = r.T_world_camera;
+  // The correction of the extrinsics held without one (the frame's, less the last correction).
+  Pose base = frame.camera.T_world_camera;
+  if (ctx.T_extrinsics_registered) base = base * ctx.T_extrinsics_registered->inverse();
+  ctx.T_extrinsics_registered = base.inverse() * r.T_world_camera;
   ctx.out.camera_registrations.push_back(
       {ctx.simTime(), r.rotation, r.translation, binDisplacement(ctx, frame.camera.T_world_camera, r.T_world_camera), r.rms, r.points});
   ctx.milestone("registration");

@@ -152,8 +152,9 @@ class TrialContext {
   std::optional<Pose> over_target;   ///< set when a place plan has brought the held object over its target
   std::vector<Pose> failed_grasps;   ///< grasps whose execution failed (not chosen again)
   std::vector<Obstacle> seen_obstacles;  ///< obstacles not part of the cell, as last sensed (planned around)
-  /// Camera mode: the camera's pose as the last registration against the cell found it (RegisterCamera).
-  std::optional<Pose> T_world_camera_registered;
+  /// Camera mode: the last registration against the cell (RegisterCamera), as a correction of the
+  /// extrinsics otherwise held (in the camera's frame: it moves with a camera on the arm).
+  std::optional<Pose> T_extrinsics_registered;
   FaultHooks* faults = nullptr;      ///< fault injection, if any
   int picking = -1;                  ///< the object whose pick is being executed (-1: none)
   std::map<int, double> last_touch;  ///< per object, when the robot last touched it [s, simulated] (metrics)

@@ -127,6 +127,21 @@ TEST(CellRegistration, TheQuickCheckSeesAKnockAndPassesACameraOnItsMount) {
   }
 }
 
+TEST(CellRegistration, AKnockLastsTheTrialOnly) {
+  Cell cell;
+  const Pose knock = makePose(Vec3(0.003, 0, 0), Mat3(Eigen::AngleAxisd(0.02, Vec3::UnitX())));
+  ASSERT_TRUE(cell.world->setCameraOffset("overhead_camera", knock));
+  EXPECT_FALSE(cell.world->setCameraOffset("no_such_camera", knock));
+  const CameraModel cam = renderer().camera(*cell.world, "overhead_camera", 64, 48, "(test)");
+  Frame knocked = renderer().render(*cell.world, cam, kDepth);
+  cell.world->reset(panda().home());  // the next trial
+  Frame next = renderer().render(*cell.world, cam, kDepth);
+  cell.world->setCameraOffset("overhead_camera", Pose::Identity());
+  Frame mounted = renderer().render(*cell.world, cam, kDepth);
+  EXPECT_NE(knocked.depth, mounted.depth) << "the knock shows in the image";
+  EXPECT_EQ(next.depth, mounted.depth) << "reset() puts the camera back on its mount";
+}
+
 TEST(CellRegistration, RefusesWhatItCannotFit) {
   Cell cell;
   Pose truth;
