@@ -279,6 +279,8 @@ CellRegistration registerCameraToCell(const Frame& frame, const std::vector<Obst
   res.T_world_camera = T;
   res.rotation = Eigen::AngleAxisd(T.linear() * cam.T_world_camera.linear().transpose()).angle();
   res.translation = (T.translation() - cam.T_world_camera.translation()).norm();
+  const Pose move = T * cam.T_world_camera.inverse();
+  for (const Vec3& r : region) res.bin_shift = std::max(res.bin_shift, (move * r - r).norm());
   // Every direction of the camera's motion must be pinned down by some surface: the smallest
   // eigenvalue of the normal equations against the largest (rotations weighted by their lever, ~1 m).
   const Eigen::Matrix<double, 6, 1> eig = Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(H / res.points).eigenvalues();

@@ -48,6 +48,7 @@ struct CellRegistration {
   Pose T_world_camera = Pose::Identity();  ///< the camera where the cell's geometry puts it
   double rotation = 0;     ///< [rad] the correction's angle, from the extrinsics it started from
   double translation = 0;  ///< [m] how far the camera's centre moved from where they put it
+  double bin_shift = 0;    ///< [m] the farthest the correction moves a corner of the bin (floor and crop height; without a bin, the points' centroid)
   int points = 0;          ///< matched at the end
   double rms = 0;          ///< [m] their point-to-plane residual
   int iterations = 0;

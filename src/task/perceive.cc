@@ -29,21 +29,6 @@ CellRegistrationOptions registrationOptions(const TrialContext& ctx) {
   return ro;
 }
 
-// [m] the farthest a point of the bin (its floor's and its crop's corners) is moved by the camera
-// moving from `from` to `to`: what a point seen there is moved by.
-double binDisplacement(const TrialContext& ctx, const Pose& from, const Pose& to) {
-  const PerceptionOptions& o = ctx.perception;
-  const Pose move = to * from.inverse();
-  double worst = 0;
-  for (double sx : {-1.0, 1.0})
-    for (double sy : {-1.0, 1.0})
-      for (double z : {0.0, o.crop_height}) {
-        const Vec3 p = o.T_world_crop * Vec3(sx * o.crop_half.x(), sy * o.crop_half.y(), z);
-        worst = std::max(worst, (move * p - p).norm());
-      }
-  return worst;
-}
-
 // Camera mode: a frame of the perception's camera, its extrinsics those the robot holds: the
 // calibration file's, else the mount's in the scene, corrected by the last registration against
 // the cell. The
@@ -85,7 +70,7 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
       p.reason = "the camera cannot be checked against the cell's known parts (" + check.reason + "): it may have moved";
       return p;
     }
-    const double error = check.ok ? binDisplacement(ctx, frame.camera.T_world_camera, check.T_world_camera) : 0.0;
+    const double error = check.ok ? check.bin_shift : 0.0;
     if (error > o.max_extrinsics_error) {
       std::snprintf(buf, sizeof buf, "the cell's known parts put the camera %.2f deg and %.1f mm from its extrinsics, which moves "
                     "what it sees in the bin by up to %.1f mm: it has moved (register it again)", check.rotation * 180 / M_PI,
@@ -194,7 +179,7 @@ Failure registerCamera(TrialContext& ctx) {
   if (ctx.T_extrinsics_registered) base = base * ctx.T_extrinsics_registered->inverse();
   ctx.T_extrinsics_registered = base.inverse() * r.T_world_camera;
   ctx.out.camera_registrations.push_back(
-      {ctx.simTime(), r.rotation, r.translation, binDisplacement(ctx, frame.camera.T_world_camera, r.T_world_camera), r.rms, r.points});
+      {ctx.simTime(), r.rotation, r.translation, r.bin_shift, r.rms, r.points});
   ctx.milestone("registration");
   return {};
 }
