@@ -163,6 +163,9 @@ Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& worl
     if (camera != e.perception.camera)
       throw InputError(e.perception.extrinsics, "calibrates camera '" + camera + "', expected perception.camera '" + e.perception.camera + "'");
   }
+  if (c.spawn.generated.enabled() && e.perception.mode == PerceptionMode::kCamera)
+    throw InputError(e.file, "objects.generated: generated objects are meshes, and camera perception finds the catalogue's boxes and "
+                             "cylinders only (expected perception.mode ground_truth for generated objects)");
   for (const std::string& k : c.spawn.kinds) {
     const ObjectKind* kind = c.spawn.loaded.find(k);
     if (kind->shape == ObjectShape::kMesh && e.perception.mode == PerceptionMode::kCamera)
@@ -175,6 +178,7 @@ Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& worl
   if (c.perception.crop_height <= 0) {
     double tallest = 0;
     for (const std::string& k : c.spawn.kinds) tallest = std::max(tallest, 2 * c.spawn.loaded.find(k)->half_size.maxCoeff());
+    if (c.spawn.generated.enabled()) tallest = std::max(tallest, c.spawn.generated.max_extent);
     c.perception.crop_height = std::max(0.1, 3 * tallest);
   }
   return c;

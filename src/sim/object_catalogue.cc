@@ -44,10 +44,6 @@ std::array<double, 4> readRgba(const spec_io::Reader& r, const YAML::Node& n) {
   return c;
 }
 
-// Hull vertices MuJoCo 2.2 is given per convex piece (it has no cap of its own; contacts with a
-// hull cost with its vertex count).
-constexpr int kDefaultHullVertices = 64;
-
 // Volume, centre of mass and unit-density inertia (about the centre of mass) of solids together.
 MassProperties combined(const std::vector<MassProperties>& parts) {
   MassProperties all;
@@ -131,21 +127,7 @@ void checkMass(double mass, const std::string& what) {
 // mass properties are the parts' (MuJoCo 2.2's own mesh inertia is unreliable), at uniform density.
 std::shared_ptr<const ObjectSolid> readSolid(const std::string& file, const Vec3& scale, int hull_vertices, double& mass, double density,
                                              const std::string& what) {
-  const std::vector<TriangleMesh> parts = readMeshParts(file, scale);
-  std::vector<MassProperties> props;
-  std::vector<ConvexHull> hulls;
-  std::vector<std::string> names;
-  for (const TriangleMesh& part : parts) {
-    names.push_back(file + (part.part.empty() ? "" : " (part '" + part.part + "')"));
-    checkSolid(part, names.back());
-    props.push_back(massProperties(part));
-    hulls.push_back(cappedHull(part.vertices, hull_vertices, names.back()));
-  }
-  checkNoOverlap(hulls, names);
-  const MassProperties all = combined(props);
-  if (mass <= 0) mass = density * all.volume;
-  checkMass(mass, what);
-  return makeSolid(hulls, parts, all.volume, all.centroid, all.inertia * (mass / all.volume));
+  return solidFromParts(readMeshParts(file, scale), hull_vertices, mass, density, what);
 }
 
 // A URDF kind's solid: its collision elements' capped hulls as the convex pieces; its visual
@@ -172,13 +154,6 @@ std::shared_ptr<const ObjectSolid> urdfSolid(const UrdfObject& u, int hull_verti
   return makeSolid(hulls, u.visual.empty() ? as_meshes : u.visual, all.volume, all.centroid, all.inertia * (mass / all.volume));
 }
 
-// The half sizes of a solid's bounding box (its pieces' vertices, in its frame at their centre).
-Vec3 boundingHalfSize(const ObjectSolid& solid) {
-  Vec3 lo = Vec3::Constant(INFINITY), hi = -lo;
-  for (const ConvexPiece& piece : *solid.pieces)
-    for (const Vec3& v : piece.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
-  return (hi - lo) / 2;
-}
 
 // A file a catalogue names: relative to the catalogue's folder unless absolute.
 std::string besideCatalogue(const std::string& catalogue, const std::filesystem::path& file) {
@@ -186,6 +161,31 @@ std::string besideCatalogue(const std::string& catalogue, const std::filesystem:
 }
 
 }  // namespace
+
+std::shared_ptr<const ObjectSolid> solidFromParts(const std::vector<TriangleMesh>& parts, int hull_vertices, double& mass,
+                                                  double density, const std::string& what) {
+  std::vector<MassProperties> props;
+  std::vector<ConvexHull> hulls;
+  std::vector<std::string> names;
+  for (const TriangleMesh& part : parts) {
+    names.push_back(what + (part.part.empty() ? "" : " (part '" + part.part + "')"));
+    checkSolid(part, names.back());
+    props.push_back(massProperties(part));
+    hulls.push_back(cappedHull(part.vertices, hull_vertices, names.back()));
+  }
+  checkNoOverlap(hulls, names);
+  const MassProperties all = combined(props);
+  if (mass <= 0) mass = density * all.volume;
+  checkMass(mass, what);
+  return makeSolid(hulls, parts, all.volume, all.centroid, all.inertia * (mass / all.volume));
+}
+
+Vec3 boundingHalfSize(const ObjectSolid& solid) {
+  Vec3 lo = Vec3::Constant(INFINITY), hi = -lo;
+  for (const ConvexPiece& piece : *solid.pieces)
+    for (const Vec3& v : piece.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+  return (hi - lo) / 2;
+}
 
 ObjectCatalogue loadObjectCatalogue(const std::string& path) {
   const spec_io::Reader r{path};

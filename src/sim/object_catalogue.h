@@ -7,11 +7,12 @@
 #include <memory>
 #include <string>
 #include <vector>
-#include <vector>
 
 #include "core/geometry.h"
 
 namespace mm {
+
+struct TriangleMesh;  // robot/solid_mesh.h
 
 /// A mesh kind's solid, in the object's frame (the file's axes, its origin moved to the centre of
 /// the collision hull's bounding box): what MuJoCo is given for it.
@@ -38,6 +39,7 @@ struct ObjectKind {
   std::vector<std::string> sources;                       ///< mesh and URDF kinds: every file read for it
   Vec3 scale = Vec3::Ones();                              ///< mesh kinds: the file's units to metres, per axis
   std::shared_ptr<const ObjectSolid> solid;               ///< mesh kinds: the solid read from the file
+  std::string grade;                                      ///< a generated object's shape grade (sim/object_generator.h); "" for the catalogue's
 };
 
 struct ObjectCatalogue {
@@ -51,6 +53,19 @@ struct ObjectCatalogue {
   /// `kind` as object k of a trial: with the palette's k-th colour unless the kind has its own.
   ObjectKind asObject(const ObjectKind& kind, int k) const;
 };
+
+/// Hull vertices MuJoCo 2.2 is given per convex piece by default (it has no cap of its own; contacts
+/// with a hull cost with its vertex count).
+constexpr int kDefaultHullVertices = 64;
+
+/// A solid from its parts, each a closed solid (checked; InputError naming `what` and the part),
+/// colliding as its capped hull; the parts must only touch (their mass properties are summed). The
+/// mass: `mass` if > 0, else density times the volume (written back to `mass`).
+std::shared_ptr<const ObjectSolid> solidFromParts(const std::vector<TriangleMesh>& parts, int hull_vertices, double& mass,
+                                                  double density, const std::string& what);
+
+/// The half sizes of a solid's bounding box (its pieces' vertices, in its frame at their centre).
+Vec3 boundingHalfSize(const ObjectSolid& solid);
 
 /// Reads a catalogue; throws InputError naming file:line:column for anything malformed.
 ObjectCatalogue loadObjectCatalogue(const std::string& path);

@@ -27,6 +27,9 @@ void SpawnOptions::declare(ConfigArchive& a) {
   a.value("drop", drop,
          "drop the objects into the bin from above in random orientations (layers of three, wall_margin from the walls), "
          "so that they touch, lean and stack; false: upright, min_spacing apart");
+  a.enter("generated");
+  generated.declare(a);
+  a.leave();
 }
 
 void SpawnOptions::resolve(const std::string& file) {
@@ -119,8 +122,14 @@ SpawnResult spawnObjects(SimWorld& w, const RobotModel& robot, const Pose& T_reg
   SpawnResult r;
   const int count = o.count_min + static_cast<int>(rng.below(o.count_max - o.count_min + 1));
   // The objects in play (a kind drawn per object when there are several), then the parked pool.
+  // Generated objects: the round's set drawn from its own seed, taken from the scene's stream
+  // (the set does not depend on how many draws placing it takes).
   std::vector<ObjectKind> objects;
-  for (int i = 0; i < std::max(count, o.pool); ++i) {
+  if (o.generated.enabled()) {
+    objects = generateObjectSet(rng.next(), count, o.generated);
+    for (int i = count; i < o.pool; ++i) objects.push_back(objects.front());
+  }
+  for (int i = static_cast<int>(objects.size()); i < std::max(count, o.pool); ++i) {
     const size_t kind = i < count && o.kinds.size() > 1 ? rng.below(o.kinds.size()) : 0;
     objects.push_back(o.loaded.asObject(*o.loaded.find(o.kinds[kind]), i));
   }

@@ -10,13 +10,14 @@
 #include "core/config.h"
 #include "core/rng.h"
 #include "sim/object_catalogue.h"
+#include "sim/object_generator.h"
 #include "sim/sim_world.h"
 
 namespace mm {
 
 struct SpawnOptions {
-  /// Keys count_min, count_max, catalogue, kinds, pool, wall_margin, min_spacing, min_gap, settle_time, drop
-  /// (section "objects").
+  /// Keys count_min, count_max, catalogue, kinds, pool, wall_margin, min_spacing, min_gap, settle_time, drop,
+  /// generated.* (section "objects").
   void declare(ConfigArchive& a);
   /// Loads `catalogue` (a relative path: against the project root) and checks `kinds` against it;
   /// throws InputError naming `file` (the experiment) for an unknown kind.
@@ -24,6 +25,7 @@ struct SpawnOptions {
   int count_min = 1, count_max = 3;
   std::string catalogue = "scenes/objects.yaml";  ///< the object catalogue
   std::vector<std::string> kinds{"cube_5cm"};      ///< the catalogue's kinds a trial draws from
+  ObjectSetOptions generated;                      ///< unknown objects generated per trial instead (when it has grades)
   int pool = 0;  ///< objects in the model, at least: out-of-play ones parked (today's pool, for benchmarks)
   ObjectCatalogue loaded;  ///< `catalogue` as read by resolve()
   bool drop = false;           ///< dropped from above in random orientations (physics only; mock: placed as without)
