@@ -99,6 +99,23 @@ std::string summaryTable(const CampaignSummary& s) {
     t << "  Objects placed:    " << s.objects_placed << " (one a trial asked); " << s.objects_left_in_bin
       << (s.objects_left_in_bin == 1 ? " object" : " objects") << " left in the bins" << spawns << "\n";
   t << "  Max Tracking Err:  " << std::setprecision(4) << s.max_tracking_error << " rad\n";
+  if (!s.clutter_by_grade.empty()) {  // generated objects: the clutter-removal protocol's figures
+    auto rate = [](const Rate& r, const char* of) {
+      return r.n == 0 ? std::string("n/a (none)")
+                      : fixedText(100 * r.value, 1) + "% [95% CI " + fixedText(100 * r.ci95[0], 1) + ", " + fixedText(100 * r.ci95[1], 1) +
+                            "] of " + std::to_string(r.n) + of;
+    };
+    t << std::string(64, '-') << "\n  Clutter removal (grasp success: attempts whose object reached the tray;\n"
+      << "  declutter: objects in the tray of those in the bins)\n";
+    t << "    " << std::left << std::setw(8) << "all" << std::right << " GSR " << rate(s.clutter.grasp_success, " attempts") << "\n"
+      << "    " << std::setw(8) << "" << " DR  " << rate(s.clutter.declutter, " objects") << "\n";
+    for (const ClutterStats& g : s.clutter_by_grade)
+      t << "    " << std::left << std::setw(8) << g.grade << std::right << " GSR " << rate(g.grasp_success, " attempts") << "; DR "
+        << rate(g.declutter, " objects") << "\n";
+    std::string results;
+    for (const auto& [result, count] : s.attempt_results) results += (results.empty() ? "" : ", ") + result + " " + std::to_string(count);
+    t << "    attempts: " << (results.empty() ? "none" : results) << "\n";
+  }
   if (!s.faults.empty()) {
     t << std::string(64, '-') << "\n  Faults: injected, detected; recovered of those judged (unrecoverable kinds:\n"
       << "  correctly given up), Wilson 95% interval; MTTR (onset to the stage's success)\n";

@@ -36,6 +36,8 @@ void TrialRecord::describe(RecordArchive& a) {
   a.field("dropped", o.dropped, "", "a held object left the hand");
   a.field("objects_in_bin", objects_in_bin, "", "objects spawned in the bin (0 when the spawn failed: failure_kind spawn)");
   a.field("spawn_attempts", spawn_attempts, "", "spawns drawn until one settled cleanly");
+  a.field("object_grades", object_grades, "",
+          "generated objects (objects.generated): each object's shape grade, by its index k (object_<k>); empty for the catalogue's kinds");
   a.field("target_object", o.target_object, "", "the first object picked (its index k: object_<k> of the trial's model)");
   a.field("grasp_candidates_tried", o.grasp_candidates_tried, "", "grasp candidates filtered, all picks");
   a.field("pushes", o.pushes, "", "pushes planned to move an object no grasp fits (PushObject)");
@@ -95,6 +97,15 @@ void TrialRecord::describe(RecordArchive& a) {
     p.field("first_pass", k.first_pass, "", "let go of at its target with no failure recorded since the previous object was");
     p.field("reason", k.reason, "", "why it is not placed");
   }, "every object let go of, in order");
+  size_t n_attempts = o.grasp_attempts.size();
+  a.list("grasp_attempts", n_attempts, [&](size_t i, RecordArchive& g) {
+    if (g.reading() && o.grasp_attempts.size() <= i) o.grasp_attempts.resize(i + 1);
+    GraspAttempt& k = o.grasp_attempts[i];
+    g.field("object", k.object, "", "the object the fingers closed on, else the one nearest the grasp (-1: none within 3 cm); scored from the simulator's truth");
+    g.field("result", k.result, "",
+            "in_tray (that object released in the tray: a success), missed (nothing between the fingers, or they did not close), dropped, "
+            "let_go_elsewhere, held_at_end");
+  }, "every closing of the fingers on a chosen grasp candidate (the clutter-removal protocol's attempt; pushes are not attempts), in order");
   long placed = std::count_if(o.picks.begin(), o.picks.end(), [](const PickRecord& p) { return p.placed; });
   a.field("objects_placed", placed, "", "picks placed within the tolerances");
   a.field("objects_left_in_bin", o.objects_left_in_bin, "", "at the end, as the bin's sensor sees it");
@@ -291,6 +302,27 @@ void CampaignSummary::describe(RecordArchive& a) {
   a.field("neighbours_moved_mm_max", neighbours_moved_mm_max, "mm", "the farthest an object moved while another was picked");
   a.field("objects_placed", objects_placed, "", "");
   a.field("objects_spawned", objects_spawned, "", "objects in the bins at the trials' starts");
+  // The clutter-removal protocol (VGN / GIGA): grasp success rate and declutter rate.
+  auto rate = [](RecordArchive& a, const char* key, Rate& r, const char* help) {
+    a.object(key, [&](RecordArchive& y) {
+      y.field("value", r.value, "", "k / n; -1 when n is 0");
+      y.field("ci95", r.ci95, "", "Wilson 95% interval (empty when n is 0)");
+      y.field("k", r.k, "", "");
+      y.field("n", r.n, "", "");
+    }, help);
+  };
+  rate(a, "grasp_success_rate", clutter.grasp_success, "grasp attempts (closings of the fingers on a chosen grasp) whose object was released in the tray / attempts");
+  rate(a, "declutter_rate", clutter.declutter, "objects released in the tray / objects in the bins at the trials' starts");
+  a.field("attempt_results", attempt_results, "", "grasp attempts by result (in_tray, missed, dropped, let_go_elsewhere, held_at_end)");
+  size_t n_grades = clutter_by_grade.size();
+  a.list("clutter_by_grade", n_grades, [&](size_t i, RecordArchive& g) {
+    if (g.reading() && clutter_by_grade.size() <= i) clutter_by_grade.resize(i + 1);
+    ClutterStats& c = clutter_by_grade[i];
+    g.field("grade", c.grade, "", "a generated object's shape grade (objects.generated.grades)");
+    g.field("objects", c.objects, "", "");
+    rate(g, "grasp_success_rate", c.grasp_success, "over the attempts on objects of this grade");
+    rate(g, "declutter_rate", c.declutter, "over the objects of this grade");
+  }, "the same per shape grade of generated objects (attempts that closed near no object count only in the totals)");
   a.object("object_yield", [&](RecordArchive& y) {
     y.field("value", object_yield, "", "objects placed / objects spawned (bin clearing's yield)");
     y.field("ci95", object_yield_ci95, "", "Wilson 95% interval");

@@ -36,7 +36,7 @@ class RecordArchive {
   virtual bool reading() const { return false; }
 };
 
-constexpr int kTrialSchema = 9;  // 3: attempts, failure kinds crash and hang; 4: picks' offset; 5: forces, contacts; 6: picks' first_pass; 7: detections; 8: grasp selections, picks' grasp type and deviation; 9: ik_solver
+constexpr int kTrialSchema = 10;  // 3: attempts, failure kinds crash and hang; 4: picks' offset; 5: forces, contacts; 6: picks' first_pass; 7: detections; 8: grasp selections, picks' grasp type and deviation; 9: ik_solver; 10: grasp attempts, object grades
 
 /// One trial as trials.jsonl holds it.
 struct TrialRecord {
@@ -45,6 +45,7 @@ struct TrialRecord {
   std::string hardware;
   int objects_in_bin = 0;  ///< spawned
   int spawn_attempts = 0;
+  std::vector<std::string> object_grades;  ///< generated objects: each one's shape grade, by index
   std::string bt_log;      ///< the .db3 relative to the results folder, if kept
   int attempts = 1;        ///< worker processes it took (2: the first died or hung)
   TrialOutcome o;
@@ -66,6 +67,22 @@ struct FaultStats {
   double recovery = -1;
   std::vector<double> ci95;         ///< Wilson 95% interval of it
   double mttr_mean = -1, mttr_max = -1;  ///< [s] over the recovered ones
+};
+
+/// A rate k / n with its Wilson 95% interval (value -1 and no interval when n is 0).
+struct Rate {
+  long k = 0, n = 0;
+  double value = -1;
+  std::vector<double> ci95;
+  void finish();
+};
+
+/// The clutter-removal protocol's figures for the objects of one shape grade (or all of them).
+struct ClutterStats {
+  std::string grade;  ///< "" for all objects
+  long objects = 0;   ///< in the rounds at their starts
+  Rate grasp_success; ///< attempts whose object was released in the tray / attempts
+  Rate declutter;     ///< objects released in the tray / objects
 };
 
 /// A campaign's summary.json: yields with Wilson intervals, times, accuracy, counts, environment.
@@ -104,6 +121,9 @@ struct CampaignSummary {
   double non_target_contacts_per_trial = 0;
   double neighbours_moved_mm_max = 0;
   long objects_spawned = 0;
+  ClutterStats clutter;                    ///< grasp success and declutter rates over all objects
+  std::vector<ClutterStats> clutter_by_grade;  ///< the same per shape grade (generated objects)
+  std::map<std::string, long> attempt_results;  ///< grasp attempts by result
   double object_yield = 0, object_first_pass_yield = 0;
   std::vector<double> object_yield_ci95, object_first_pass_ci95;
   double wall_seconds = 0, trials_per_second = 0;
@@ -129,6 +149,7 @@ class SummaryBuilder {
   std::map<std::string, FaultStats> kinds_;
   Int128 all_time_ = 0, sim_total_ = 0;
   long unrecovered_failures_ = 0, non_target_contacts_ = 0, objects_first_pass_ = 0;
+  std::map<std::string, ClutterStats> grades_;
 };
 
 /// The statistics of `trials` (a SummaryBuilder fed with each).

@@ -304,6 +304,31 @@ void campaignSections(Builder& b, const json& s, const fs::path& jsonl) {
                  std::to_string(s.value("hangs", 0L)) + " / " + std::to_string(s.at("sim_unstable").get<long>()),
              "harness_failures"}}});
 
+  if (s.contains("clutter_by_grade") && !s.at("clutter_by_grade").empty()) {
+    b.section("Clutter removal");
+    b.para("The clutter-removal protocol's figures (VGN, GIGA): grasp success rate, the attempts (closings of the fingers on a "
+           "chosen grasp) whose object was released in the tray; declutter rate, the objects released in the tray of those in the "
+           "bins. Per shape grade of the generated objects, with Wilson 95% intervals.");
+    auto cells = [&](const json& r, const std::string& id) -> std::vector<std::pair<std::string, std::string>> {
+      if (r.at("n").get<long>() == 0) return {{"n/a", id}, {"", ""}, {"0", ""}};
+      return {{pct(r.at("value")), id}, {interval(r.at("ci95")), ""}, {std::to_string(r.at("k").get<long>()) + " / " + std::to_string(r.at("n").get<long>()), ""}};
+    };
+    std::vector<std::vector<std::pair<std::string, std::string>>> rows;
+    auto row = [&](const std::string& name, const json& g) {
+      std::vector<std::pair<std::string, std::string>> cols{{name, ""}};
+      for (const auto& c : cells(g.at("grasp_success_rate"), "grasp_success_rate." + name)) cols.push_back(c);
+      for (const auto& c : cells(g.at("declutter_rate"), "declutter_rate." + name)) cols.push_back(c);
+      rows.push_back(cols);
+    };
+    row("all", s);
+    for (const json& g : s.at("clutter_by_grade")) row(g.at("grade").get<std::string>(), g);
+    b.table({"grade", "grasp success", "95% interval", "in tray / attempts", "declutter", "95% interval", "in tray / objects"}, rows);
+    std::string results;
+    for (const auto& [result, count] : s.at("attempt_results").items())
+      results += (results.empty() ? "" : ", ") + result + " " + std::to_string(count.get<long>());
+    b.para("Attempts by result: " + (results.empty() ? std::string("none") : results) + ".");
+  }
+
   b.section("Cycle time");
   b.figure("cycle_histogram", histogram("cycle_histogram", cycles, "cycle time of successful trials [s]"),
            "Cycle time of the " + std::to_string(cycles.size()) + " successful trials (the source's breakdown summed).");

@@ -6,8 +6,16 @@
 #include "campaign/record.h"
 #include "campaign/stats.h"
 #include "faults/faults.h"
+#include "sim/object_generator.h"
 
 namespace mm {
+
+void Rate::finish() {
+  if (n <= 0) return;
+  value = double(k) / n;
+  const auto [lo, hi] = wilson95(k, n);
+  ci95 = {lo, hi};
+}
 
 void SummaryBuilder::add(const TrialRecord& r) {
   const TrialOutcome& o = r.o;
@@ -66,6 +74,25 @@ void SummaryBuilder::add(const TrialRecord& r) {
     if (f.outcome == "given_up") ++k.given_up;
     if (f.outcome == "superseded") ++k.superseded;
     if (f.outcome == "unrecovered") ++k.unrecovered;
+  }
+  // The clutter-removal protocol: attempts and their successes, objects and those released in
+  // the tray, over all objects and per shape grade.
+  auto gradeOf = [&](int object) -> const std::string* {
+    return object >= 0 && object < static_cast<int>(r.object_grades.size()) ? &r.object_grades[static_cast<size_t>(object)] : nullptr;
+  };
+  s.clutter.objects += r.objects_in_bin;
+  s.clutter.declutter.n += r.objects_in_bin;
+  for (const std::string& g : r.object_grades) ++grades_[g].objects, ++grades_[g].declutter.n;
+  std::vector<int> in_tray;
+  for (const PickRecord& p : o.picks)
+    if (p.at_target && std::find(in_tray.begin(), in_tray.end(), p.object) == in_tray.end()) in_tray.push_back(p.object);
+  s.clutter.declutter.k += static_cast<long>(in_tray.size());
+  for (int object : in_tray)
+    if (const std::string* g = gradeOf(object)) ++grades_[*g].declutter.k;
+  for (const GraspAttempt& a : o.grasp_attempts) {
+    ++s.clutter.grasp_success.n, s.clutter.grasp_success.k += a.success();
+    ++s.attempt_results[a.result];
+    if (const std::string* g = gradeOf(a.object)) ++grades_[*g].grasp_success.n, grades_[*g].grasp_success.k += a.success();
   }
   for (const PickRecord& p : o.picks) {
     if (p.grasp_type.empty()) continue;
@@ -127,6 +154,21 @@ CampaignSummary SummaryBuilder::get() const {
     s.object_yield_ci95 = {pl, ph};
     s.object_first_pass_ci95 = {ql, qh};
   }
+  s.clutter.grasp_success.finish();
+  s.clutter.declutter.finish();
+  for (const auto& [grade, g0] : grades_) {
+    ClutterStats g = g0;
+    g.grade = grade;
+    g.grasp_success.finish();
+    g.declutter.finish();
+    s.clutter_by_grade.push_back(g);
+  }
+  auto rank = [](const std::string& grade) {  // the grades simplest first, as the generator has them
+    const auto& all = shapeGrades();
+    return std::find(all.begin(), all.end(), grade) - all.begin();
+  };
+  std::stable_sort(s.clutter_by_grade.begin(), s.clutter_by_grade.end(),
+                   [&](const ClutterStats& a, const ClutterStats& b) { return rank(a.grade) < rank(b.grade); });
   s.recovery_rate = s.recoveries_needed ? double(s.recovered) / s.recoveries_needed : -1;
   const Moments c = cycle_.get(), m = sim_.get(), pm = place_mm_.get(), od = orient_deg_.get(), sl = slip_mm_.get();
   s.cycle_mean = c.mean, s.cycle_std = c.std, s.cycle_max = c.max;

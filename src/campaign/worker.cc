@@ -45,6 +45,7 @@ TrialRecord makeRecord(const Experiment& e, uint64_t trial, const SpawnResult& s
   r.hardware = e.hardware;
   r.objects_in_bin = spawn.ok ? static_cast<int>(spawn.active.size()) : 0;  // a failed spawn put no object in play
   r.spawn_attempts = spawn.attempts;
+  if (spawn.ok) r.object_grades = spawn.grades;
   r.bt_log = bt_log;
   r.o = std::move(o);
   return r;

@@ -127,6 +127,7 @@ SpawnResult spawnObjects(SimWorld& w, const RobotModel& robot, const Pose& T_reg
   std::vector<ObjectKind> objects;
   if (o.generated.enabled()) {
     objects = generateObjectSet(rng.next(), count, o.generated);
+    for (const ObjectKind& k : objects) r.grades.push_back(k.grade);
     for (int i = count; i < o.pool; ++i) objects.push_back(objects.front());
   }
   for (int i = static_cast<int>(objects.size()); i < std::max(count, o.pool); ++i) {

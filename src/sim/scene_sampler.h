@@ -41,6 +41,7 @@ struct SpawnOptions {
 struct SpawnResult {
   bool ok = false;
   std::vector<int> active;  ///< object indices in play
+  std::vector<std::string> grades;  ///< generated objects: each one's shape grade, by index (else empty)
   int attempts = 0;
   std::string reason;
 };

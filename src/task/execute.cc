@@ -176,7 +176,10 @@ class PlanExecution final : public Motion {
     st.sim_seconds = m->duration();
     ctx_.executeBucket(plan_.bucket) += m->duration();
     ctx_.out.max_tracking_error = std::max(ctx_.out.max_tracking_error, m->maxTrackingError());
+    const bool attempt = s.kind == PlanStep::Kind::kGripper && s.expected_opening > 0;  // a pick's closing on its grasp
+    if (attempt) beginAttempt(hw);
     if (m->state() == MotionState::kFailed) {
+      if (attempt) endAttempt("missed");
       if (s.kind == PlanStep::Kind::kGripper && s.release) letGo();
       if (m->failure().kind == FailureKind::kDropped) lost();
       Failure f = m->failure();
@@ -193,13 +196,16 @@ class PlanExecution final : public Motion {
         ctx_.out.grasp_opening = opening;
         ctx_.held_record.grasp_opening = opening;
         if (opening < 0.5 * s.expected_opening || opening < 0.003) {
+          endAttempt("missed");
           ctx_.failed_grasps.push_back(plan_.T_world_grasp);
           return fail(hw, Failure{s.stage, FailureKind::kGraspMissed,
                                   "nothing between the fingers (closed to " + std::to_string(opening * 1000) + " mm)"});
         }
-        if (opening > s.expected_opening + 0.005)
+        if (opening > s.expected_opening + 0.005) {
+          endAttempt("missed");
           return fail(hw, Failure{s.stage, FailureKind::kGraspMissed,
                                   "the fingers did not close (still " + std::to_string(opening * 1000) + " mm open)"});
+        }
       }
     }
   }
@@ -222,6 +228,18 @@ class PlanExecution final : public Motion {
     if (truth < 0) return;
     hold(hw, plan_.object, truth, plan_.object_half, plan_.T_tcp_object, plan_.grasp_candidates_tried, plan_.object_shape,
          plan_.grasp_type, plan_.object_pieces);
+  }
+
+  // A grasp attempt begins as the fingers close on a chosen candidate: on the object meant, else
+  // (scored from the simulator's truth) the one nearest the TCP.
+  void beginAttempt(const Hardware& hw) {
+    ctx_.out.grasp_attempts.push_back({objectInFingers(hw, ctx_.truthIndex(plan_.object)), "held_at_end"});
+    ctx_.attempt_open = true;
+  }
+  void endAttempt(const char* result) {
+    if (!ctx_.attempt_open) return;
+    ctx_.out.grasp_attempts.back().result = result;
+    ctx_.attempt_open = false;
   }
 
   // The simulator's bookkeeping of what the fingers closed on (for the records, the weld and the
@@ -298,6 +316,7 @@ class PlanExecution final : public Motion {
             const std::string& grasp_type, std::shared_ptr<const std::vector<ConvexPiece>> pieces) {
     ctx_.held = object;
     ctx_.held_truth = truth;
+    if (ctx_.attempt_open) ctx_.out.grasp_attempts.back().object = truth;
     if (std::find(ctx_.picked.begin(), ctx_.picked.end(), object) == ctx_.picked.end()) ctx_.picked.push_back(object);
     // Let go of away from a target before, picked again now: that record is superseded.
     auto& picks = ctx_.out.picks;
@@ -340,6 +359,7 @@ class PlanExecution final : public Motion {
     ctx_.hw.setPayload(0, Vec3::Zero());
     PickRecord r = ctx_.held_record;
     r.at_target = ctx_.over_target.has_value();
+    if (ctx_.attempt_open && ctx_.out.grasp_attempts.back().object == ctx_.held_truth) endAttempt(r.at_target ? "in_tray" : "let_go_elsewhere");
     if (r.at_target) {
       r.T_world_target = *ctx_.over_target;
       r.first_pass = ctx_.out.failures.size() == ctx_.failures_at_last_place;
@@ -356,6 +376,7 @@ class PlanExecution final : public Motion {
   // The held object left the hand (a drop): no longer held, back in the world.
   void lost() {
     if (ctx_.held < 0) return;
+    endAttempt("dropped");
     if (ctx_.options.weld && ctx_.held_truth >= 0) ctx_.hw.attach(ctx_.held_truth, false);
     ctx_.hw.setPayload(0, Vec3::Zero());
     forget(ctx_.held);

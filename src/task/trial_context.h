@@ -169,6 +169,7 @@ class TrialContext {
   int next_detection_id = kFirstDetectionId;
   std::map<int, int> truth_of;  ///< camera mode: a detection's id -> the simulator's object it matched (-1: none)
   int held_truth = -1;          ///< the simulator's index of the object really in the hand, -1 for none
+  bool attempt_open = false;    ///< the last grasp attempt is not yet decided (out.grasp_attempts.back())
   int looked_at_picks = -1;     ///< camera mode: picked.size() when the bin was last looked at again (objectsInBin)
   /// The simulator's index of the robot's object `id`, or -1 (a false detection, a ghost).
   int truthIndex(int id) const;

@@ -82,6 +82,16 @@ struct LeftRecord {
   std::string reason;            ///< its last grasp's or push's failure; "not tried" when none was planned
 };
 
+/// One closing of the fingers on a chosen grasp candidate: the clutter-removal protocol's attempt
+/// (pushes are not attempts). Scored from the simulator's truth after the fact.
+struct GraspAttempt {
+  int object = -1;     ///< the object the fingers closed on (else the one nearest the grasp), -1: none near
+  /// in_tray (that object released in the tray: a success), missed (nothing between the fingers, or
+  /// they did not close), dropped, let_go_elsewhere, or held_at_end.
+  std::string result = "held_at_end";
+  bool success() const { return result == "in_tray"; }
+};
+
 /// A failure an action reported during the trial, and whether the tree went on after it.
 struct RecordedFailure {
   Failure failure;
@@ -134,6 +144,7 @@ struct TrialOutcome {
   long collision_checks = 0;
   double grasp_opening = 0;  ///< [m] per finger after the last close
   std::vector<PickRecord> picks;  ///< every object let go of, in order
+  std::vector<GraspAttempt> grasp_attempts;  ///< every closing of the fingers on a chosen grasp, in order
   std::vector<GraspSelection> grasp_selections;  ///< every grasp selection, in order
   std::vector<DetectionRecord> detections;  ///< camera mode: every detection of every perception
   int missed_detections = 0;      ///< camera mode: objects in the bin a perception did not find
