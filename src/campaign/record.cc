@@ -103,8 +103,8 @@ void TrialRecord::describe(RecordArchive& a) {
     GraspAttempt& k = o.grasp_attempts[i];
     g.field("object", k.object, "", "the object the fingers closed on, else the one nearest the grasp (-1: none within 3 cm); scored from the simulator's truth");
     g.field("result", k.result, "",
-            "in_tray (that object released in the tray: a success), missed (nothing between the fingers, or they did not close), dropped, "
-            "let_go_elsewhere, held_at_end");
+            "in_tray (that object released in the tray: a success), missed (nothing between the fingers, they did not close, or no object "
+            "there), dropped, let_go_elsewhere (let go of away from its place target), halted (the closing stopped by the tree), held_at_end");
   }, "every closing of the fingers on a chosen grasp candidate (the clutter-removal protocol's attempt; pushes are not attempts), in order");
   long placed = std::count_if(o.picks.begin(), o.picks.end(), [](const PickRecord& p) { return p.placed; });
   a.field("objects_placed", placed, "", "picks placed within the tolerances");
@@ -313,13 +313,12 @@ void CampaignSummary::describe(RecordArchive& a) {
   };
   rate(a, "grasp_success_rate", clutter.grasp_success, "grasp attempts (closings of the fingers on a chosen grasp) whose object was released in the tray / attempts");
   rate(a, "declutter_rate", clutter.declutter, "objects released in the tray / objects in the bins at the trials' starts");
-  a.field("attempt_results", attempt_results, "", "grasp attempts by result (in_tray, missed, dropped, let_go_elsewhere, held_at_end)");
+  a.field("attempt_results", attempt_results, "", "grasp attempts by result (in_tray, missed, dropped, let_go_elsewhere, halted, held_at_end)");
   size_t n_grades = clutter_by_grade.size();
   a.list("clutter_by_grade", n_grades, [&](size_t i, RecordArchive& g) {
     if (g.reading() && clutter_by_grade.size() <= i) clutter_by_grade.resize(i + 1);
     ClutterStats& c = clutter_by_grade[i];
     g.field("grade", c.grade, "", "a generated object's shape grade (objects.generated.grades)");
-    g.field("objects", c.objects, "", "");
     rate(g, "grasp_success_rate", c.grasp_success, "over the attempts on objects of this grade");
     rate(g, "declutter_rate", c.declutter, "over the objects of this grade");
   }, "the same per shape grade of generated objects (attempts that closed near no object count only in the totals)");

@@ -80,7 +80,6 @@ struct Rate {
 /// The clutter-removal protocol's figures for the objects of one shape grade (or all of them).
 struct ClutterStats {
   std::string grade;  ///< "" for all objects
-  long objects = 0;   ///< in the rounds at their starts
   Rate grasp_success; ///< attempts whose object was released in the tray / attempts
   Rate declutter;     ///< objects released in the tray / objects
 };

@@ -80,9 +80,8 @@ void SummaryBuilder::add(const TrialRecord& r) {
   auto gradeOf = [&](int object) -> const std::string* {
     return object >= 0 && object < static_cast<int>(r.object_grades.size()) ? &r.object_grades[static_cast<size_t>(object)] : nullptr;
   };
-  s.clutter.objects += r.objects_in_bin;
   s.clutter.declutter.n += r.objects_in_bin;
-  for (const std::string& g : r.object_grades) ++grades_[g].objects, ++grades_[g].declutter.n;
+  for (const std::string& g : r.object_grades) ++grades_[g].declutter.n;
   std::vector<int> in_tray;
   for (const PickRecord& p : o.picks)
     if (p.at_target && std::find(in_tray.begin(), in_tray.end(), p.object) == in_tray.end()) in_tray.push_back(p.object);

@@ -20,8 +20,9 @@ void ObjectSetOptions::declare(ConfigArchive& a) {
          "(convex: one convex solid; blend: two or three stacked; bent: an L, U or zigzag bar; hollow: a ring, cup or channel); "
          "empty: objects.kinds");
   a.value("density", density, {50, 3000}, "kg/m^3", "generated objects' density");
-  a.value("max_width", max_width, {0.02, 0.07}, "m", "every generated object has a width across which a parallel gripper closes at most this");
-  a.value("max_extent", max_extent, {0.05, 0.15}, "m", "no side of a generated object's bounding box is longer");
+  a.value("max_width", max_width, {0.02, 0.07}, "m",
+          "every generated object has a piece at most this wide in some direction (the fingers close across it)");
+  a.value("max_extent", max_extent, {0.05, 0.15}, "m", "no side of a generated object's bounding box is longer (at least max_width)");
 }
 
 namespace {
@@ -162,7 +163,7 @@ Recipe convexSolid(Rng& rng, const ObjectSetOptions& o) {
       return {"box", {piece(p, 0, p, z, "box")}};
     }
     default: {  // a pebble: an ellipsoid's hull, cut flat below
-      const double a = rng.uniform(0.6 * r_max, r_max), b = rng.uniform(0.015, o.max_extent / 2), c = rng.uniform(0.012, r_max);
+      const double a = rng.uniform(0.6 * r_max, r_max), b = rng.uniform(0.015, o.max_extent / 2), c = rng.uniform(std::min(0.012, r_max), r_max);
       std::vector<Vec3> points;
       const int n = 40;
       for (int k = 0; k < n; ++k) {  // a Fibonacci sphere
@@ -184,7 +185,7 @@ Recipe blendSolid(Rng& rng, const ObjectSetOptions& o) {
   const double height = rng.uniform(0.04, o.max_extent);
   for (int i = 0; i < n_pieces; ++i) {
     const double radius = rng.uniform(0.45 * r_max, r_max) / 1.15;
-    const double stretch = rng.uniform(1.0, std::min(1.8, o.max_extent / (2 * r_max)));  // longer one way, never wider across
+    const double stretch = rng.uniform(1.0, std::clamp(o.max_extent / (2 * r_max), 1.0, 1.8));  // longer one way, never wider across
     if (i > 0) {  // offset, but resting on the piece below
       const double reach = 0.4 * std::min(radius, r_below);
       centre += Vec2(rng.uniform(-reach, reach), rng.uniform(-reach, reach));
@@ -252,7 +253,8 @@ Recipe hollowSolid(Rng& rng, const ObjectSetOptions& o) {
   if (cup) {
     const std::vector<Vec2> m = mitres(centreline, wall, true);
     Poly rim;
-    for (int k = 0; k < n; ++k) rim.push_back(centreline[static_cast<size_t>(k)] - m[static_cast<size_t>(k)]);  // the left edge is inside
+    for (int k = 0; k < n; ++k)  // the outer edge: the centreline runs anticlockwise, its left is inside
+      rim.push_back(centreline[static_cast<size_t>(k)] - m[static_cast<size_t>(k)]);
     pieces.push_back(piece(rim, 0, rim, floor, "floor"));
   }
   return {cup ? "cup" : "ring", std::move(pieces)};

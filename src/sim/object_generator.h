@@ -9,8 +9,9 @@
 //   blend   two or three convex pieces stacked, each on an irregular polygon, offset and turned
 //   bent    a bar bent in its plane, its pieces mitred at the bends: an L, a U or a zigzag
 //   hollow  a ring, a cup (a ring on a floor) or a channel (a floor with two walls)
-// Every object is the same colour (depth, not colour, tells them apart) and its sizes keep a width
-// across which the gripper can close (max_width) and fit in a place slot (max_extent).
+// Every object is the same colour (depth, not colour, tells them apart); it has a piece at most
+// max_width wide in some direction (the fingers close across it), and fits a place slot
+// (max_extent).
 #pragma once
 #include <string>
 #include <vector>
@@ -29,7 +30,7 @@ struct ObjectSetOptions {
   void declare(ConfigArchive& a);
   std::vector<std::string> grades;  ///< the grades a round draws from in equal shares; empty: the catalogue's kinds
   double density = 600;             ///< [kg/m^3]
-  double max_width = 0.05;          ///< [m] every object has a width across which the fingers close at most this
+  double max_width = 0.05;          ///< [m] every object has a piece at most this wide in some direction
   double max_extent = 0.08;         ///< [m] no side of its bounding box longer
   bool enabled() const { return !grades.empty(); }
 };

@@ -36,6 +36,9 @@ void SpawnOptions::resolve(const std::string& file) {
   // The experiment's loader resolved the path (a file's value against the file, --set's against
   // the working directory, the default against the project root); so did the benches.
   loaded = loadObjectCatalogue(std::filesystem::path(catalogue).lexically_normal().string());
+  if (generated.enabled() && generated.max_extent < generated.max_width)
+    throw InputError(file, "objects.generated.max_extent (" + std::to_string(generated.max_extent) +
+                               " m) is less than max_width (" + std::to_string(generated.max_width) + " m): expected at least as long");
   if (kinds.empty()) throw InputError(file, "objects.kinds: expected at least one kind of " + loaded.file);
   for (const std::string& k : kinds)
     if (!loaded.find(k)) {

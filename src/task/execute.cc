@@ -186,7 +186,10 @@ class PlanExecution final : public Motion {
       f.stage = s.stage;
       return fail(hw, f);
     }
-    if (m->halted()) return;
+    if (m->halted()) {  // the tree stopped it (its time budget)
+      if (attempt) endAttempt("halted");
+      return;
+    }
     if (s.guarded && static_cast<const TrajectoryMotion&>(*m).touchedDown()) reanchor(hw, s);
     if (s.kind == PlanStep::Kind::kGripper) {
       const double opening = static_cast<GripperMotion&>(*m).opening();
@@ -225,7 +228,10 @@ class PlanExecution final : public Motion {
 
   void attach(Hardware& hw) {
     const int truth = objectInFingers(hw, ctx_.truthIndex(plan_.object));
-    if (truth < 0) return;
+    if (truth < 0) {  // the fingers closed where no object is
+      endAttempt("missed");
+      return;
+    }
     hold(hw, plan_.object, truth, plan_.object_half, plan_.T_tcp_object, plan_.grasp_candidates_tried, plan_.object_shape,
          plan_.grasp_type, plan_.object_pieces);
   }
@@ -233,6 +239,7 @@ class PlanExecution final : public Motion {
   // A grasp attempt begins as the fingers close on a chosen candidate: on the object meant, else
   // (scored from the simulator's truth) the one nearest the TCP.
   void beginAttempt(const Hardware& hw) {
+    if (ctx_.attempt_open) endAttempt(ctx_.held >= 0 ? "held_at_end" : "missed");  // never taken over by a later one
     ctx_.out.grasp_attempts.push_back({objectInFingers(hw, ctx_.truthIndex(plan_.object)), "held_at_end"});
     ctx_.attempt_open = true;
   }

@@ -86,8 +86,9 @@ struct LeftRecord {
 /// (pushes are not attempts). Scored from the simulator's truth after the fact.
 struct GraspAttempt {
   int object = -1;     ///< the object the fingers closed on (else the one nearest the grasp), -1: none near
-  /// in_tray (that object released in the tray: a success), missed (nothing between the fingers, or
-  /// they did not close), dropped, let_go_elsewhere, or held_at_end.
+  /// in_tray (that object released in the tray: a success), missed (nothing between the fingers,
+  /// they did not close, or no object there), dropped, let_go_elsewhere (let go of away from its
+  /// place target), halted (the closing stopped by the tree), or held_at_end.
   std::string result = "held_at_end";
   bool success() const { return result == "in_tray"; }
 };

@@ -54,17 +54,17 @@ TEST(ClutterSummary, RatesOverallAndPerGrade) {
   EXPECT_EQ(s.clutter_by_grade[1].grade, "bent");
   EXPECT_EQ(s.clutter_by_grade[2].grade, "hollow");
   const ClutterStats& convex = s.clutter_by_grade[0];
-  EXPECT_EQ(convex.objects, 2);
+  EXPECT_EQ(convex.declutter.n, 2);
   EXPECT_EQ(convex.grasp_success.k, 2);
   EXPECT_EQ(convex.grasp_success.n, 2);
   EXPECT_EQ(convex.declutter.k, 2);
   const ClutterStats& bent = s.clutter_by_grade[1];
-  EXPECT_EQ(bent.objects, 2);
+  EXPECT_EQ(bent.declutter.n, 2);
   EXPECT_EQ(bent.grasp_success.k, 1);
   EXPECT_EQ(bent.grasp_success.n, 3);
   EXPECT_EQ(bent.declutter.k, 1);
   const ClutterStats& hollow = s.clutter_by_grade[2];
-  EXPECT_EQ(hollow.objects, 1);
+  EXPECT_EQ(hollow.declutter.n, 1);
   EXPECT_EQ(hollow.grasp_success.n, 0);
   EXPECT_EQ(hollow.grasp_success.value, -1) << "no attempt: no rate";
   EXPECT_TRUE(hollow.grasp_success.ci95.empty());
@@ -88,6 +88,7 @@ TEST(ClutterSummary, ARoundOfGeneratedObjectsRecordsItsAttempts) {
   for (std::string line; std::getline(in, line);) {
     const TrialRecord t = fromJsonLine(line, "trials.jsonl");
     ASSERT_EQ(t.object_grades.size(), static_cast<size_t>(t.objects_in_bin));
+    EXPECT_EQ(t.o.tree_status, "SUCCESS") << "the round ends by its rule (the bin empty, or two failures in a row), not by a budget";
     objects += t.objects_in_bin;
     for (const GraspAttempt& a : t.o.grasp_attempts) {
       ++attempts;
@@ -102,6 +103,26 @@ TEST(ClutterSummary, ARoundOfGeneratedObjectsRecordsItsAttempts) {
   EXPECT_EQ(s["grasp_success_rate"]["k"].get<long>(), in_tray);
   EXPECT_EQ(s["declutter_rate"]["n"].get<long>(), objects);
   EXPECT_GE(s["clutter_by_grade"].size(), 1u);
+}
+
+TEST(ClutterSummary, AttemptsThatFailSayHow) {
+  // Every closing is blocked (the gripper does not close): missed; every grasp slips: dropped.
+  for (const auto& [fault, result] : {std::pair<std::string, std::string>{"gripper_no_close", "missed"}, {"grasp_slip", "dropped"}}) {
+    TempDir dir;
+    const std::string out = (dir.path() / fault).string();
+    const auto r = runMinimanip("run experiments/quickstart.yaml --trials 2 --set progress=none --set faults." + fault + "=1 --out " + out);
+    ASSERT_EQ(r.code, 0) << r.out;
+    std::ifstream in(out + "/trials.jsonl");
+    int n = 0;
+    for (std::string line; std::getline(in, line);) {
+      const TrialRecord t = fromJsonLine(line, "trials.jsonl");
+      ASSERT_FALSE(t.o.grasp_attempts.empty()) << fault;
+      EXPECT_EQ(t.o.grasp_attempts.front().result, result) << fault;
+      EXPECT_GE(t.o.grasp_attempts.front().object, 0) << "the object the fingers closed on, or nearest";
+      ++n;
+    }
+    EXPECT_EQ(n, 2);
+  }
 }
 
 }  // namespace

@@ -136,6 +136,8 @@ TEST(ObjectGenerator, BadParametersAreExit2) {
   for (const auto& [set, expect] : {std::pair<std::string, std::string>{"objects.generated.grades=convex,spiky", "spiky"},
                                     {"objects.generated.max_width=0.2", "max_width"},
                                     {"objects.generated.density=-1", "density"},
+                                    {"objects.generated.grades=convex --set objects.generated.max_width=0.06 --set objects.generated.max_extent=0.05",
+                                     "less than max_width"},
                                     {"objects.generated.grades=bent --set perception.mode=camera", "generated objects are meshes"}}) {
     const auto r = runMinimanip("run experiments/quickstart.yaml --trials 1 --set progress=none --set " + set + " --out " +
                                 (dir.path() / "x").string());
