@@ -523,10 +523,12 @@ std::string recordsMarkdown() {
   r.o.camera_registrations.resize(1);
   r.o.grasp_selections.resize(1);
   r.o.grasp_selections[0].tried.resize(1);
+  r.o.grasp_attempts.resize(1);
   r.describe(t);
   Documenter s;
   CampaignSummary c;
   c.faults.resize(1);  // the documenter describes a list by its first item
+  c.clutter_by_grade.resize(1);
   c.describe(s);
   return "`trials.jsonl`, one object per trial:\n\n" + t.out.str() + "\n`summary.json`:\n\n" + s.out.str();
 }
