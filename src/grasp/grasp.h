@@ -39,6 +39,7 @@ struct GraspOptions {
   double hand_back = 0.0414;      ///< [m] the hand body's nearest point behind the TCP, along -z
   double hand_half_thickness = 0.031;  ///< [m] the hand body's half extent along the TCP's x
   double hand_half_width = 0.102;      ///< [m] the hand body's half extent along the TCP's y
+  double finger_thickness = 0.018;     ///< [m] a finger's extent along the TCP's y (closing direction)
   double approach_distance = 0.1;      ///< [m] pre-grasp back from the grasp, along the approach
   // Side grasps and scoring.
   bool side_grasps = true;
@@ -50,8 +51,11 @@ struct GraspOptions {
   double area_weight = 0.5;       ///< score per unit of pad fraction covered
 };
 
-enum class GraspType { kTopDown, kSide };
-inline const char* graspTypeName(GraspType t) { return t == GraspType::kSide ? "side" : "top_down"; }
+/// kCloud: a model-free grasp from the depth image's points (grasp/cloud_grasps.h).
+enum class GraspType { kTopDown, kSide, kCloud };
+inline const char* graspTypeName(GraspType t) {
+  return t == GraspType::kSide ? "side" : t == GraspType::kCloud ? "cloud" : "top_down";
+}
 
 struct GraspCandidate {
   Pose T_world_tcp = Pose::Identity();

@@ -35,6 +35,7 @@ GraspOptions graspOptionsFor(const GripperSpec& gripper, const TaskOptions& task
   for (const ShapeSpec& sh : gripper.fingers[0].shapes)
     if (sh.type == ShapeSpec::Type::kBox) {
       go.pad_half_width = sh.half[0];
+      go.finger_thickness = 2 * sh.half[1];
       go.pad_z_min = gripper.finger_z + sh.pos[2] - sh.half[2] - gripper.tcp_offset;
       go.pad_z_max = gripper.finger_z + sh.pos[2] + sh.half[2] - gripper.tcp_offset;
       break;

@@ -1,0 +1,364 @@
+#include "grasp/cloud_grasps.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <unordered_map>
+
+#include <Eigen/Eigenvalues>
+
+namespace mm {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// Points by the cube of side `cell` they fall in: neighbours within a radius in a few lookups.
+class Grid {
+ public:
+  Grid(const std::vector<Vec3>& points, double cell) : points_(points), cell_(cell) {
+    for (size_t i = 0; i < points.size(); ++i) cells_[key(cellOf(points[i]))].push_back(static_cast<int>(i));
+  }
+  /// Indices of the points within `r` of `p`, in the grid's order (the same for the same cloud).
+  void near(const Vec3& p, double r, std::vector<int>& out) const {
+    out.clear();
+    const Eigen::Vector3i lo = cellOf(p - Vec3::Constant(r)), hi = cellOf(p + Vec3::Constant(r));
+    for (int x = lo.x(); x <= hi.x(); ++x)
+      for (int y = lo.y(); y <= hi.y(); ++y)
+        for (int z = lo.z(); z <= hi.z(); ++z) {
+          const auto it = cells_.find(key({x, y, z}));
+          if (it == cells_.end()) continue;
+          for (int i : it->second)
+            if ((points_[i] - p).squaredNorm() <= r * r) out.push_back(i);
+        }
+  }
+
+ private:
+  Eigen::Vector3i cellOf(const Vec3& p) const { return (p / cell_).array().floor().cast<int>(); }
+  static int64_t key(const Eigen::Vector3i& c) {
+    return (static_cast<int64_t>(c.x() + (1 << 20)) << 42) | (static_cast<int64_t>(c.y() + (1 << 20)) << 21) | (c.z() + (1 << 20));
+  }
+  const std::vector<Vec3>& points_;
+  double cell_;
+  std::unordered_map<int64_t, std::vector<int>> cells_;
+};
+
+// A point in the hand's frame: x across the pads, y the closing direction, z the approach.
+struct Local {
+  Vec3 p;
+  int index;
+};
+
+}  // namespace
+
+CloudGraspOptions cloudGraspOptionsFor(const GraspOptions& hand) {
+  CloudGraspOptions o;
+  o.approach_clear = hand.approach_distance;
+  o.hand_opening = hand.max_opening;
+  o.finger_thickness = hand.finger_thickness;
+  o.pad_half_width = hand.pad_half_width;
+  o.pad_z_min = hand.pad_z_min;
+  o.pad_z_max = hand.pad_z_max;
+  o.hand_back = hand.hand_back;
+  o.hand_half_thickness = hand.hand_half_thickness;
+  o.hand_half_width = hand.hand_half_width;
+  return o;
+}
+
+PointCloud cloudFromDepth(const Frame& frame, const CloudGraspOptions& o) {
+  const CameraModel& cam = frame.camera;
+  const Pose T_region_world = o.T_world_region.inverse();
+  const double hx = o.region_half.x() + o.region_margin, hy = o.region_half.y() + o.region_margin;
+  // One point per voxel: the mean of its pixels' points, in the order of the first pixel.
+  std::unordered_map<int64_t, int> voxel_of;
+  std::vector<Vec3> sum;
+  std::vector<int> count;
+  for (int v = 0; v < cam.height; ++v)
+    for (int u = 0; u < cam.width; ++u) {
+      const float z = frame.depth[static_cast<size_t>(v) * cam.width + u];
+      if (!(z > 0)) continue;
+      const Vec3 p = cam.unproject(u, v, z), q = T_region_world * p;
+      if (std::abs(q.x()) > hx || std::abs(q.y()) > hy || q.z() < -0.01 || q.z() > o.region_height) continue;
+      const Eigen::Vector3i c = (p / o.voxel).array().floor().cast<int>();
+      const int64_t k = (static_cast<int64_t>(c.x() + (1 << 20)) << 42) | (static_cast<int64_t>(c.y() + (1 << 20)) << 21) | (c.z() + (1 << 20));
+      const auto [it, fresh] = voxel_of.emplace(k, static_cast<int>(sum.size()));
+      if (fresh) sum.push_back(Vec3::Zero()), count.push_back(0);
+      sum[it->second] += p;
+      ++count[it->second];
+    }
+  PointCloud cloud;
+  cloud.points.reserve(sum.size());
+  for (size_t i = 0; i < sum.size(); ++i) cloud.points.push_back(sum[i] / count[i]);
+  // Normals: the least principal axis of the neighbours, turned towards the camera.
+  const Grid grid(cloud.points, o.normal_radius);
+  const Vec3 eye = cam.T_world_camera.translation();
+  std::vector<int> nb;
+  cloud.normals.resize(cloud.points.size(), Vec3::UnitZ());
+  for (size_t i = 0; i < cloud.points.size(); ++i) {
+    grid.near(cloud.points[i], o.normal_radius, nb);
+    if (nb.size() < 3) {
+      cloud.normals[i] = (eye - cloud.points[i]).normalized();
+      continue;
+    }
+    Vec3 mean = Vec3::Zero();
+    for (int j : nb) mean += cloud.points[j];
+    mean /= static_cast<double>(nb.size());
+    Mat3 C = Mat3::Zero();
+    for (int j : nb) C += (cloud.points[j] - mean) * (cloud.points[j] - mean).transpose();
+    Vec3 n = Eigen::SelfAdjointEigenSolver<Mat3>(C).eigenvectors().col(0);
+    if (n.dot(eye - cloud.points[i]) < 0) n = -n;
+    cloud.normals[i] = n;
+  }
+  return cloud;
+}
+
+CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, const Vec3& preferred_x, Rng& rng) {
+  CloudGraspResult res;
+  auto t0 = Clock::now();
+  res.cloud = cloudFromDepth(frame, o);
+  res.seconds.cloud = since(t0);
+  t0 = Clock::now();
+  const std::vector<Vec3>& P = res.cloud.points;
+  const std::vector<Vec3>& N = res.cloud.normals;
+  if (P.empty()) return res;
+  const Pose T_region_world = o.T_world_region.inverse();
+  const Vec3 down = -o.T_world_region.linear().col(2);
+  // The cell's own points (the floor, the walls: outside the footprint less a margin) are
+  // obstacles, never seeds, never between the pads.
+  std::vector<int> seedable;
+  std::vector<char> cell(P.size(), 0);
+  for (size_t i = 0; i < P.size(); ++i) {
+    const Vec3 q = T_region_world * P[i];
+    cell[i] = q.z() <= o.floor_margin || std::abs(q.x()) > o.region_half.x() - o.wall_margin ||
+              std::abs(q.y()) > o.region_half.y() - o.wall_margin;
+    if (!cell[i]) seedable.push_back(static_cast<int>(i));
+  }
+  // The neighbourhood a hand can touch: its fingers, its body and the straight approach.
+  const double reach = std::max({o.hand_half_width, o.hand_opening / 2 + o.finger_thickness}) +
+                       std::max(o.hand_back + o.hand_length + o.approach_clear, o.pad_z_max) + 0.01;
+  const Grid grid(P, 0.02);
+  const CameraModel& cam = frame.camera;
+  auto unseen = [&](const Vec3& p_world) {  // behind the observed surface, or where no depth is
+    const Vec3 uvz = cam.project(p_world);
+    const int u = static_cast<int>(std::lround(uvz.x())), v = static_cast<int>(std::lround(uvz.y()));
+    if (u < 0 || v < 0 || u >= cam.width || v >= cam.height || uvz.z() <= 0) return true;
+    const float d = frame.depth[static_cast<size_t>(v) * cam.width + u];
+    return !(d > 0) || uvz.z() > d + o.unknown_margin;
+  };
+
+  std::vector<int> near, frame_nb;
+  std::vector<Local> local;
+  std::vector<GraspCandidate> found;
+  const int n_seeds = std::min<int>(o.seeds, static_cast<int>(seedable.size()));
+  res.seeds = n_seeds;
+  for (int s = 0; s < n_seeds; ++s) {
+    const int seed = seedable[rng.below(seedable.size())];
+    const Vec3& ps = P[seed];
+    grid.near(ps, o.frame_radius, frame_nb);
+    Mat3 M = Mat3::Zero();
+    for (int j : frame_nb) M += N[j] * N[j].transpose();
+    const Eigen::SelfAdjointEigenSolver<Mat3> es(M);
+    Vec3 normal = es.eigenvectors().col(2), axis = es.eigenvectors().col(0);
+    if (normal.dot(N[seed]) < 0) normal = -normal;
+    // A face that is flat (normals all alike) curves about no axis in particular: try four.
+    std::vector<Vec3> axes{axis};
+    if (es.eigenvalues()(1) < 0.02 * es.eigenvalues()(2))
+      for (int k = 1; k < 4; ++k) axes.push_back(Eigen::AngleAxisd(M_PI / 4 * k, normal) * axis);
+    grid.near(ps, reach, near);
+    for (const Vec3& ax : axes) {
+      const Vec3 binormal = ax.cross(normal).normalized();
+      for (int a = 0; a < o.approach_steps; ++a) {
+        const double theta = -M_PI / 2 + M_PI * a / o.approach_steps;
+        const Mat3 turn = Eigen::AngleAxisd(theta, ax).toRotationMatrix();
+        const Vec3 z = turn * -normal, y = turn * binormal;
+        ++res.hands;
+        if (std::acos(std::clamp(z.dot(down), -1.0, 1.0)) > o.max_tilt) {
+          ++res.tilted;
+          continue;
+        }
+        Vec3 x = y.cross(z);
+        Mat3 R;
+        R << x, y, z;
+        local.clear();
+        for (int j : near) local.push_back({R.transpose() * (P[j] - ps), j});
+        // Push the hand forward: the TCP at depth d along z from the seed. The deepest hand whose
+        // straight approach is clear, with enough points between the pads, is kept.
+        bool have = false;
+        GraspCandidate best;
+        int best_contacts = 0, best_points = 0;
+        double best_clear = 0, best_margin = 0;
+        enum { kNone, kOnCell, kFingers, kHand, kWide, kSparse, kAntipodal } why = kNone;
+        for (double d = -(o.pad_z_max - 0.003); d <= -o.pad_z_min + 1e-9; d += o.depth_step) {
+          // Between the pads: the run of points along y around the seed, split by a gap a finger fits in.
+          std::vector<std::pair<double, bool>> ys;  // y, a cell point
+          for (const Local& l : local) {
+            const double zz = l.p.z() - d;
+            if (std::abs(l.p.x()) <= o.pad_half_width && zz >= o.pad_z_min && zz <= o.pad_z_max &&
+                std::abs(l.p.y()) <= o.hand_opening / 2 + o.finger_thickness)
+              ys.emplace_back(l.p.y(), cell[l.index] != 0);
+          }
+          std::sort(ys.begin(), ys.end());
+          double lo = 0, hi = 0;
+          bool on_cell = false;
+          for (const auto& [yy, is_cell] : ys)  // upwards from the seed
+            if (yy > hi && yy - hi < o.finger_thickness) hi = yy, on_cell |= is_cell;
+          for (auto it = ys.rbegin(); it != ys.rend(); ++it)
+            if (it->first < lo && lo - it->first < o.finger_thickness) lo = it->first, on_cell |= it->second;
+          if (on_cell) {  // the pads would close on the floor or a wall
+            if (!have) why = kOnCell;
+            break;
+          }
+          const double width = hi - lo, c = (lo + hi) / 2, open = width / 2 + o.finger_margin;
+          if (2 * open > o.hand_opening) {
+            if (!have) why = kWide;
+            break;
+          }
+          // The fingers and the hand body, swept along the straight approach back from the grasp.
+          int blocked = kNone;
+          int between = 0;
+          double clear = 0.02;
+          for (const Local& l : local) {
+            const double zz = l.p.z() - d, yy = l.p.y() - c, ay = std::abs(yy);
+            if (zz <= o.pad_z_max && zz >= -o.hand_back - o.approach_clear && std::abs(l.p.x()) <= o.pad_half_width &&
+                ay >= open && ay <= open + o.finger_thickness) {
+              blocked = kFingers;
+              break;
+            }
+            if (zz < -o.hand_back && zz >= -o.hand_back - o.hand_length - o.approach_clear &&
+                std::abs(l.p.x()) <= o.hand_half_thickness && ay <= o.hand_half_width) {
+              blocked = kHand;
+              break;
+            }
+            if (std::abs(l.p.x()) <= o.pad_half_width && zz >= o.pad_z_min && zz <= o.pad_z_max) {
+              if (ay < open) ++between;
+              else clear = std::min(clear, ay - open - o.finger_thickness);
+            }
+          }
+          if (blocked != kNone) {
+            if (!have) why = static_cast<decltype(why)>(blocked);
+            break;  // deeper only sweeps further into what blocked it
+          }
+          if (between < o.min_points) {
+            if (!have) why = kSparse;
+            continue;
+          }
+          // Antipodal contacts. The faces the pads meet are mostly unseen from above (a wall's
+          // sides), so a contact face is the outermost surface of the points between the pads: per
+          // cell of a grid over the pad (x across it, z along it), the outermost y on each side; a
+          // plane y = a x + b z + c fitted to those, its normal's angle from the closing axis
+          // (within the friction cone: the pads squeeze, they do not push the object out).
+          constexpr int kNx = 3, kNz = 6;
+          double ext[2][kNx][kNz];
+          bool filled[2][kNx][kNz] = {};
+          for (const Local& l : local) {
+            const double zz = l.p.z() - d;
+            if (std::abs(l.p.x()) > o.pad_half_width || zz < o.pad_z_min || zz > o.pad_z_max || l.p.y() < lo || l.p.y() > hi) continue;
+            const int ix = std::clamp(static_cast<int>((l.p.x() + o.pad_half_width) / (2 * o.pad_half_width) * kNx), 0, kNx - 1);
+            const int iz = std::clamp(static_cast<int>((zz - o.pad_z_min) / (o.pad_z_max - o.pad_z_min) * kNz), 0, kNz - 1);
+            for (int side = 0; side < 2; ++side) {
+              const double yy = side == 0 ? -l.p.y() : l.p.y();  // outward: -y on the left, +y on the right
+              if (!filled[side][ix][iz] || yy > ext[side][ix][iz]) ext[side][ix][iz] = yy, filled[side][ix][iz] = true;
+            }
+          }
+          int cells = 0;
+          double worst = 0;
+          for (int side = 0; side < 2; ++side) {
+            Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
+            Vec3 Atb = Vec3::Zero();
+            int n = 0;
+            for (int ix = 0; ix < kNx; ++ix)
+              for (int iz = 0; iz < kNz; ++iz) {
+                if (!filled[side][ix][iz]) continue;
+                const Vec3 row(-o.pad_half_width + (ix + 0.5) * 2 * o.pad_half_width / kNx,
+                               o.pad_z_min + (iz + 0.5) * (o.pad_z_max - o.pad_z_min) / kNz, 1.0);
+                AtA += row * row.transpose();
+                Atb += row * ext[side][ix][iz];
+                ++n;
+              }
+            // A slope no cell constrains (one column, one row) is taken as none: a small ridge.
+            AtA(0, 0) += 1e-6, AtA(1, 1) += 1e-6;
+            const Vec3 abc = AtA.ldlt().solve(Atb);
+            worst = std::max(worst, std::atan(std::hypot(abc.x(), abc.y())));
+            cells = side == 0 ? n : std::min(cells, n);
+          }
+          if (cells < o.min_contacts || worst > o.cone) {
+            if (!have) why = kAntipodal;
+            continue;
+          }
+          have = true;
+          best.T_world_tcp = makePose(ps + R * Vec3(0, c, d), R);
+          best.width = width;
+          best_contacts = cells;
+          best_margin = o.cone - worst;
+          best_points = between;
+          best_clear = clear;
+        }
+        if (!have) {
+          if (why == kOnCell) ++res.on_cell;
+          else if (why == kFingers) ++res.fingers_blocked;
+          else if (why == kHand) ++res.hand_blocked;
+          else if (why == kWide) ++res.too_wide;
+          else if (why == kSparse) ++res.sparse;
+          else ++res.not_antipodal;
+          continue;
+        }
+        // The fingers' volume at the grasp, out of the space the camera could not see.
+        const Mat3& Rg = best.T_world_tcp.linear();
+        const Vec3 tcp = best.T_world_tcp.translation();
+        const double open = best.width / 2 + o.finger_margin;
+        int total = 0, hidden = 0;
+        for (int side = -1; side <= 1; side += 2)
+          for (double fx : {-o.pad_half_width, 0.0, o.pad_half_width})
+            for (double fz = o.pad_z_min; fz <= o.pad_z_max + 1e-9; fz += 0.004)
+              for (double fy : {open, open + o.finger_thickness}) {
+                ++total;
+                hidden += unseen(tcp + Rg * Vec3(fx, side * fy, fz));
+              }
+        if (hidden > o.max_unknown * total) {
+          ++res.unseen;
+          continue;
+        }
+        // The TCP's x nearer the preferred direction (the same grasp turned half a turn about z).
+        if (Rg.col(0).dot(preferred_x) < 0) {
+          Mat3 F = Rg;
+          F.col(0) = -Rg.col(0);
+          F.col(1) = -Rg.col(1);
+          best.T_world_tcp.linear() = F;
+        }
+        best.type = GraspType::kCloud;
+        best.approach = -Rg.col(2);
+        best.yaw = yawOf(best.T_world_tcp.linear());
+        best.clearance = best_clear;
+        best.closure_margin = best_margin;
+        const double tilt = std::acos(std::clamp(Rg.col(2).dot(down), -1.0, 1.0));
+        best.score = o.contact_weight * best_contacts / 18.0 + o.closure_weight * best_margin + o.points_weight * std::min(1.0, best_points / 100.0) -
+                     o.tilt_weight * tilt + o.clearance_weight * std::max(0.0, best_clear);
+        found.push_back(best);
+      }
+    }
+  }
+  // Best first; a candidate near a better one (close and hardly turned from it) is the same grasp.
+  std::stable_sort(found.begin(), found.end(), [](const GraspCandidate& a, const GraspCandidate& b) { return a.score > b.score; });
+  for (const GraspCandidate& g : found) {
+    bool same = false;
+    for (const GraspCandidate& k : res.candidates) {
+      const double dist = (g.T_world_tcp.translation() - k.T_world_tcp.translation()).norm();
+      const Mat3 D = g.T_world_tcp.linear().transpose() * k.T_world_tcp.linear();
+      const double angle = std::acos(std::clamp((D.trace() - 1) / 2, -1.0, 1.0));
+      // The same hand turned half a turn about its approach is the same grasp.
+      const double flipped = std::acos(std::clamp((D.trace() - 1) / 2 - (D(0, 0) + D(1, 1)) , -1.0, 1.0));
+      if (dist < o.nms_distance && std::min(angle, flipped) < o.nms_angle) {
+        same = true;
+        break;
+      }
+    }
+    if (!same) res.candidates.push_back(g);
+    if (static_cast<int>(res.candidates.size()) >= o.max_candidates) break;
+  }
+  res.seconds.hands = since(t0);
+  return res;
+}
+
+}  // namespace mm

@@ -1,0 +1,96 @@
+// Model-free 6-DoF grasps of a parallel gripper from one depth view, with no object model: the
+// geometry of GPD (ten Pas, Gualtieri, Saenko, Platt, "Grasp Pose Detection in Point Clouds",
+// IJRR 2017), scored by hand-written rules where GPD scores with a network.
+//   depth -> the points inside the region (the bin with its walls) in the world, thinned to one
+//   per voxel -> normals (the smallest principal axis of the neighbours, turned to the camera)
+//   -> seeds drawn on the points above the floor
+//   -> per seed a frame from the normals around it (the eigenvectors of sum n n^T: the largest is
+//      the surface's normal, the smallest the axis it curves least about)
+//   -> hands: the approach along -normal turned about that axis in steps (a flat face, whose axis is
+//      any, also turned about its normal); those tilted more than max_tilt from straight down dropped
+//   -> per hand the fingers centred on the points between them, opened by a margin wider than
+//      those points, and the hand pushed as deep as it goes with the fingers' and the palm's
+//      straight approach clear of every observed point (the floor, the walls, the neighbours) and
+//      the fingers out of the space the camera cannot see (behind an observed surface)
+//   -> kept when enough contacts on each side have normals inside the friction cone about the
+//      closing direction (antipodal), scored by those contacts, the points between the pads, the
+//      tilt and the clearance beside the fingers; near-duplicates suppressed, best first.
+#pragma once
+#include <vector>
+
+#include "core/camera.h"
+#include "core/geometry.h"
+#include "core/rng.h"
+#include "grasp/grasp.h"
+
+namespace mm {
+
+/// Points in the world with outward normals (turned towards the camera that saw them).
+struct PointCloud {
+  std::vector<Vec3> points, normals;
+};
+
+struct CloudGraspOptions {
+  // Where to look: the bin's floor frame, its footprint's half sizes, and how far beyond it and
+  // how high above its floor the points are kept (the walls and the tallest object).
+  Pose T_world_region = Pose::Identity();
+  Vec3 region_half = Vec3::Zero();  ///< x, y [m]
+  double region_margin = 0.03;      ///< [m] beyond the footprint (the walls' tops)
+  double region_height = 0.15;      ///< [m] above the floor
+  double floor_margin = 0.01;       ///< [m] points this close to the floor are floor (its noise: 2 mm sigma at 1.2 m): obstacles, never seeds
+  double wall_margin = 0.004;       ///< [m] points this close to the footprint's edge, or beyond, are the walls'
+  double voxel = 0.003;             ///< [m] one point per voxel
+  double normal_radius = 0.008;     ///< [m] neighbours of a normal's fit
+  double frame_radius = 0.012;      ///< [m] normals of a seed's frame
+  int seeds = 400;
+  int approach_steps = 8;           ///< turns about the frame's axis, -90 .. +90 degrees
+  double max_tilt = 0.9;            ///< [rad] the approach from straight down
+  double depth_step = 0.004;        ///< [m] the push along the approach
+  double finger_margin = 0.012;     ///< [m] each finger opens this far beyond the points between them
+  double cone = 0.35;               ///< [rad] a contact face's normal within this of the closing axis (GPD: 20 degrees)
+  int min_contacts = 4;             ///< cells of the pad (of 3 x 6) the object fills, on each side
+  int min_points = 20;              ///< points between the pads
+  double unknown_margin = 0.006;    ///< [m] a finger point this far behind the observed surface is in unseen space
+  double max_unknown = 0.3;         ///< share of the fingers' points allowed in unseen space
+  double approach_clear = 0.1;      ///< [m] the straight approach checked for points, back from the grasp
+  double hand_length = 0.06;        ///< [m] the hand body behind its front, checked
+  int max_candidates = 40;
+  double nms_distance = 0.01;       ///< [m] a candidate this close to a better one ...
+  double nms_angle = 0.35;          ///< [rad] ... and turned less than this from it is dropped
+  // The gripper in the TCP frame (z along the approach, the fingers closing along y), as GraspOptions.
+  double hand_opening = 0.08;       ///< [m] the full stroke
+  double finger_thickness = 0.018;  ///< [m] along y
+  double pad_half_width = 0.0105;   ///< [m] along x
+  double pad_z_min = -0.0416, pad_z_max = 0.0124;  ///< [m] the pads along z (the tip: max)
+  double hand_back = 0.0416;        ///< [m] the hand body's front behind the TCP
+  double hand_half_thickness = 0.031, hand_half_width = 0.102;  ///< [m] the hand body along x, y
+  // Score weights.
+  double contact_weight = 1.0, closure_weight = 1.0, points_weight = 0.5, tilt_weight = 0.5, clearance_weight = 10.0;
+};
+
+/// The detector's options for a gripper as grasp/ knows it (its stroke, pads, hand body, fingers).
+CloudGraspOptions cloudGraspOptionsFor(const GraspOptions& hand);
+
+/// The points of `frame`'s depth inside the region, one per voxel (their mean), with normals;
+/// in the order of the pixels, so the same image gives the same cloud.
+PointCloud cloudFromDepth(const Frame& frame, const CloudGraspOptions& o);
+
+struct CloudGraspResult {
+  PointCloud cloud;
+  std::vector<GraspCandidate> candidates;  ///< best first; type kCloud
+  int seeds = 0, hands = 0;                ///< seeds drawn, hands evaluated
+  /// Why hands were dropped: tilted beyond max_tilt; the pads closing on the floor or a wall, the
+  /// fingers' or the hand's approach through points (before any depth was right); too wide, too
+  /// few points between the pads, not antipodal (at every depth); the fingers in unseen space.
+  int tilted = 0, on_cell = 0, fingers_blocked = 0, hand_blocked = 0, too_wide = 0, sparse = 0, not_antipodal = 0, unseen = 0;
+  struct {
+    double cloud = 0, hands = 0;  ///< wall-clock seconds (benchmarks print them; nothing decides by them)
+  } seconds;
+};
+
+/// Grasp candidates from the depth of `frame` (its camera's extrinsics trusted). `preferred_x` the
+/// world direction the TCP's x should point along (of the two hands turned half a turn about the
+/// approach, which are one grasp, the one nearer it); `rng` draws the seeds.
+CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, const Vec3& preferred_x, Rng& rng);
+
+}  // namespace mm

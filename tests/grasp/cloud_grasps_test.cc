@@ -1,0 +1,183 @@
+// Model-free grasps from the depth camera, checked against the truth they never read: piles of
+// generated objects (every grade) dropped into the bin, seen once from the overhead camera with
+// the stereo noise; a candidate is right when, closed from its opening, its pads meet one object
+// in force closure and its fingers, opened, are inside no object and above the floor.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <memory>
+
+#include "core/rng.h"
+#include "grasp/cloud_grasps.h"
+#include "perception/camera_perception.h"
+#include "render/renderer.h"
+#include "../render/test_renderer.h"
+#include "sim/scene_sampler.h"
+#include "sim/sim_world.h"
+
+namespace mm {
+namespace {
+
+const RobotModel& panda() {
+  static const RobotModel robot = RobotModel::load("robots/panda/panda.yaml");
+  return robot;
+}
+
+using testing_render::renderer;
+
+bool insidePiece(const ObjectState& o, const Vec3& p_world) {
+  const Vec3 p = o.T_world_object.inverse() * p_world;
+  for (const ConvexPiece& piece : *o.pieces) {
+    bool in = true;
+    for (const auto& [n, d] : piece.planes)
+      if (n.dot(p) > d) {
+        in = false;
+        break;
+      }
+    if (in) return true;
+  }
+  return false;
+}
+
+struct Verdict {
+  bool right = false;
+  std::string why;
+};
+
+// Closing from `open` on each side, at levels across the pads: the object(s) the pads meet first,
+// force closure at those contacts, and the opened fingers clear of every object and the floor.
+Verdict judge(const GraspCandidate& g, const std::vector<ObjectState>& objects, double floor_z, const CloudGraspOptions& o,
+              double mu) {
+  const Mat3& R = g.T_world_tcp.linear();
+  const Vec3 tcp = g.T_world_tcp.translation();
+  const double open = g.width / 2 + o.finger_margin;
+  for (int side = -1; side <= 1; side += 2)
+    for (double fx : {-o.pad_half_width, 0.0, o.pad_half_width})
+      for (double fz = o.pad_z_min; fz <= o.pad_z_max + 1e-9; fz += 0.004)
+        for (double fy : {open + 0.002, open + o.finger_thickness / 2, open + o.finger_thickness}) {
+          const Vec3 p = tcp + R * Vec3(fx, side * fy, fz);
+          if (p.z() < floor_z) return {false, "finger below the floor"};
+          for (const ObjectState& ob : objects)
+            if (insidePiece(ob, p)) return {false, "finger inside object " + std::to_string(ob.index)};
+        }
+  // The first contacts of the closing pads: the smallest entry and the largest exit over levels.
+  double lo = INFINITY, hi = -INFINITY;
+  Vec3 n_lo = Vec3::Zero(), n_hi = Vec3::Zero(), p_lo = Vec3::Zero();
+  int who_lo = -1, who_hi = -1;
+  for (double fx : {-o.pad_half_width * 0.8, 0.0, o.pad_half_width * 0.8})
+    for (double fz = o.pad_z_min + 0.002; fz <= o.pad_z_max - 0.002; fz += 0.003) {
+      const Vec3 p = tcp + R * Vec3(fx, 0, fz), y = R.col(1);
+      for (const ObjectState& ob : objects)
+        for (const ConvexPiece& piece : *ob.pieces) {  // piece by piece: a ring's two sides are two spans
+          ObjectState one = ob;
+          one.pieces = std::make_shared<const std::vector<ConvexPiece>>(std::vector<ConvexPiece>{piece});
+          double t1, t2;
+          Vec3 n1, n2;
+          if (!lineThroughObject(one, p, y, t1, t2, n1, n2)) continue;
+          if (t2 < -open || t1 > open) continue;
+          if (t1 < lo) lo = t1, n_lo = n1, p_lo = p + t1 * y, who_lo = ob.index;
+          if (t2 > hi) hi = t2, n_hi = n2, who_hi = ob.index;
+        }
+    }
+  if (who_lo < 0) return {false, "nothing between the pads"};
+  if (who_lo != who_hi) return {false, "two objects between the pads"};
+  if (lo < -open || hi > open) return {false, "wider than the opening"};
+  // Flat pads squeeze along the closing axis: each contact face's normal within the friction cone
+  // about it (forceClosureMargin's test, with the segment between the contacts the closing axis).
+  const Vec3 y = R.col(1);
+  const double margin = forceClosureMargin(p_lo, -n_lo, p_lo + y, -n_hi, mu);
+  if (margin <= 0) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "out of force closure (object %d, span %.3f .. %.3f, normals %.0f, %.0f deg off the closing axis)", who_lo,
+                  lo, hi, std::acos(std::clamp(-n_lo.dot(y), -1.0, 1.0)) * 180 / M_PI,
+                  std::acos(std::clamp(n_hi.dot(y), -1.0, 1.0)) * 180 / M_PI);
+    return {false, buf};
+  }
+  return {true, ""};
+}
+
+TEST(CloudGrasps, TopCandidatesInPilesHoldOneObjectInForceClosureWithFingersClear) {
+  auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
+  const auto [T_bin, half] = w->site("bin_region");
+  CloudGraspOptions o;
+  o.T_world_region = T_bin;
+  o.region_half = half;
+  const int piles = 8;
+  int top1 = 0, top5 = 0, top5_n = 0, with = 0;
+  for (int trial = 0; trial < piles; ++trial) {
+    SCOPED_TRACE("pile " + std::to_string(trial));
+    SpawnOptions so;
+    so.generated.grades = shapeGrades();
+    so.count_min = 5, so.count_max = 10;
+    so.drop = true;
+    so.wall_margin = 0.06;
+    so.settle_time = 2.0;
+    so.min_spacing = 0.05;
+    Rng rng = Rng::stream(11, trial, Purpose::kScene);
+    const SpawnResult r = spawnObjects(*w, panda(), T_bin, half, rng, so);
+    ASSERT_TRUE(r.ok) << r.reason;
+    w->updateKinematics();
+    const CameraModel cam = renderer().camera(*w, "overhead_camera", 1280, 960, "(test)");
+    Frame frame = renderer().render(*w, cam, kDepth);
+    Rng noise = Rng::stream(11, trial, Purpose::kCamera);
+    applyDepthNoise(frame, DepthNoise{}, noise);
+    Rng grng = Rng::stream(11, trial, Purpose::kGrasp);
+    const CloudGraspResult res = cloudGrasps(frame, o, Vec3::UnitX(), grng);
+    std::vector<ObjectState> objects;
+    for (int i : r.active) objects.push_back(w->object(i));
+    std::printf("pile %d: %zu objects, %zu points, %d seeds, %d hands (tilted %d, on cell %d, fingers %d, hand %d, wide %d, sparse %d, not antipodal %d, unseen %d), %zu candidates, %.2f s + %.2f s\n",
+                trial, objects.size(), res.cloud.points.size(), res.seeds, res.hands, res.tilted, res.on_cell, res.fingers_blocked, res.hand_blocked, res.too_wide, res.sparse,
+                res.not_antipodal, res.unseen, res.candidates.size(), res.seconds.cloud, res.seconds.hands);
+    if (res.candidates.empty()) continue;
+    ++with;
+    for (size_t k = 0; k < std::min<size_t>(5, res.candidates.size()); ++k) {
+      const Verdict v = judge(res.candidates[k], objects, T_bin.translation().z(), o, 1.0);
+      std::printf("  #%zu score %.2f width %.3f tilt %.0f deg: %s\n", k, res.candidates[k].score, res.candidates[k].width,
+                  std::acos(-res.candidates[k].T_world_tcp.linear()(2, 2)) * 180 / M_PI, v.right ? "right" : v.why.c_str());
+      if (k == 0) top1 += v.right;
+      top5 += v.right;
+      ++top5_n;
+    }
+  }
+  std::printf("top-1 right in %d of %d piles with candidates; top-5: %d of %d\n", top1, with, top5, top5_n);
+  EXPECT_EQ(with, piles) << "every pile has candidates";
+  EXPECT_GE(top1, piles * 7 / 8);
+  EXPECT_GE(top5, top5_n * 3 / 4);
+}
+
+TEST(CloudGrasps, TheSameViewAndSeedGiveTheSameCandidates) {
+  auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
+  const auto [T_bin, half] = w->site("bin_region");
+  SpawnOptions so;
+  so.generated.grades = shapeGrades();
+  so.count_min = 5, so.count_max = 10;
+  so.settle_time = 2.0;
+  so.drop = true;
+  so.wall_margin = 0.06;
+  so.min_spacing = 0.05;
+  Rng rng = Rng::stream(11, 1, Purpose::kScene);  // a pile the first test sees too
+  ASSERT_TRUE(spawnObjects(*w, panda(), T_bin, half, rng, so).ok);
+  w->updateKinematics();
+  const Frame frame = renderer().render(*w, renderer().camera(*w, "overhead_camera", 640, 480, "(test)"), kDepth);
+  CloudGraspOptions o;
+  o.T_world_region = T_bin;
+  o.region_half = half;
+  Rng a = Rng::stream(3, 0, Purpose::kGrasp), b = Rng::stream(3, 0, Purpose::kGrasp), c = Rng::stream(3, 1, Purpose::kGrasp);
+  const CloudGraspResult ra = cloudGrasps(frame, o, Vec3::UnitX(), a), rb = cloudGrasps(frame, o, Vec3::UnitX(), b),
+                         rc = cloudGrasps(frame, o, Vec3::UnitX(), c);
+  ASSERT_FALSE(ra.candidates.empty()) << "a 640 x 480 view of a pile has grasps";
+  ASSERT_EQ(ra.candidates.size(), rb.candidates.size());
+  for (size_t k = 0; k < ra.candidates.size(); ++k) {
+    EXPECT_EQ(ra.candidates[k].T_world_tcp.matrix(), rb.candidates[k].T_world_tcp.matrix()) << k;
+    EXPECT_EQ(ra.candidates[k].score, rb.candidates[k].score) << k;
+    // The TCP's x towards the preferred side, z into the bin.
+    EXPECT_GE(ra.candidates[k].T_world_tcp.linear().col(0).dot(Vec3::UnitX()), 0.0) << k;
+    EXPECT_LT(ra.candidates[k].T_world_tcp.linear()(2, 2), -std::cos(o.max_tilt) + 1e-9) << k;
+    EXPECT_EQ(ra.candidates[k].type, GraspType::kCloud);
+  }
+  EXPECT_NE(ra.candidates.front().T_world_tcp.matrix(), rc.candidates.front().T_world_tcp.matrix()) << "other seeds, other samples";
+}
+
+}  // namespace
+}  // namespace mm
