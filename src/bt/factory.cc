@@ -96,6 +96,22 @@ TreeDocument& TreeDocument::operator=(TreeDocument&&) noexcept = default;
 const std::string& TreeDocument::mainTreeId() const { return impl_->main_id; }
 const std::string& TreeDocument::file() const { return impl_->file; }
 
+std::vector<std::pair<std::string, std::string>> TreeDocument::attributeValues(const std::string& node,
+                                                                               const std::string& attribute) const {
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const auto& [id, def] : impl_->trees) {
+    std::vector<const XMLElement*> open{def.element};
+    while (!open.empty()) {
+      const XMLElement* e = open.back();
+      open.pop_back();
+      if (node == e->Name())
+        if (const char* v = e->Attribute(attribute.c_str())) out.emplace_back(v, def.file + ":" + std::to_string(e->GetLineNum()));
+      for (const XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) open.push_back(c);
+    }
+  }
+  return out;
+}
+
 namespace {
 
 std::string where(const std::string& file, const XMLElement* e) { return file + ":" + std::to_string(e->GetLineNum()); }

@@ -39,6 +39,10 @@ class TreeDocument {
   TreeDocument& operator=(TreeDocument&&) noexcept;
   const std::string& mainTreeId() const;
   const std::string& file() const;
+  /// The values of `attribute` on every node of type `node` in the document's trees (what a
+  /// campaign must set up for them: a port that asks for the camera, say).
+  /// Each as (value, "file:line").
+  std::vector<std::pair<std::string, std::string>> attributeValues(const std::string& node, const std::string& attribute) const;
   struct Impl;
   Impl& impl() const { return *impl_; }
 

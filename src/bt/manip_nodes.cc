@@ -275,11 +275,30 @@ class WaitForGraspCandidates final : public TaskAction {
   using TaskAction::TaskAction;
   static PortsList providedPorts() {
     return {inputPort<unsigned>("timeout", "3000", "[ms] accepted; the candidates are ready at once"),
+            inputPort<std::string>("source", "",
+                                   "model: from each perceived object's shape and pose; cloud: model-free, from the perception "
+                                   "camera's points, each under the perceived object it closes on; empty: the experiment's grasp.source"),
             outputPort<GraspList>("candidates", "grasp candidates, most accessible object first, best first per object")};
   }
 
  protected:
   NodeStatus run(TrialContext& c) override {
+    const auto source_in = getInput<std::string>("source");
+    const std::string source = source_in ? source_in.value() : "";
+    if (source != "" && source != "model" && source != "cloud")
+      throw RuntimeError("WaitForGraspCandidates: source '" + source + "': expected model, cloud or nothing");
+    if (source == "cloud" || (source.empty() && c.options.grasp_source == TaskOptions::GraspSource::kCloud)) {
+      // Objects in the order of their best candidate from the camera's points.
+      std::vector<std::pair<ObjectState, std::vector<GraspCandidate>>> per_object;
+      const Failure f = cloudGraspCandidates(c, per_object);
+      if (!f.ok()) return statusOf(c.fail(f));
+      GraspList list;
+      for (const auto& [object, candidates] : per_object)
+        for (size_t k = 0; k < candidates.size() && k < static_cast<size_t>(c.options.max_grasp_candidates); ++k)
+          list.push_back({object, candidates[k]});
+      output("candidates", toAny(list));
+      return NodeStatus::kSuccess;
+    }
     // Objects by accessibility: those with a grasp that passes every check first, each group by
     // the room around them.
     std::vector<const ObjectState*> order, later;
@@ -620,7 +639,9 @@ void registerTaskNodes(Factory& f, TaskNodeEnv& env) {
   add<WaitForGraspCandidates>(f, env, "WaitForGraspCandidates",
                               "Grasp candidates for the perceived objects: objects with a grasp that passes every check first, "
                               "each group by room to its neighbours, each object's candidates "
-                              "by score (up to grasp.max_candidates each). FAILURE when there is none.");
+                              "by score (up to grasp.max_candidates each). With source cloud (or grasp.source: cloud): "
+                              "model-free candidates from a fresh view of the perception camera, each under the perceived "
+                              "object its pads close on, objects in the order of their best candidate. FAILURE when there is none.");
   add<SelectBestGrasp>(f, env, "SelectBestGrasp",
                        "The first candidate that passes the source's filterGrasps (pre-grasp IK, no collision, straight "
                        "approach and lift). FAILURE when none does.");

@@ -255,12 +255,14 @@ std::string checkCampaignInput(const Experiment& e) {
   makeCell(e, robot, *world);
   loadTree(e);
   // The cameras named must exist; camera perception cannot run without a renderer.
-  if (e.perception.mode == PerceptionMode::kCamera || e.render.enabled()) {
+  const bool camera = needsCamera(e);  // a bad source= of the tree is exit 2 here
+  if (camera || e.render.enabled()) {
     std::string why;
     const auto renderer = Renderer::create(e.render.egl, &why);
-    if (!renderer && e.perception.mode == PerceptionMode::kCamera)
-      throw InputError(e.file, "perception.mode camera needs an offscreen OpenGL context, and none can be made here: " + why);
-    if (renderer && e.perception.mode == PerceptionMode::kCamera)
+    if (!renderer && camera)
+      throw InputError(e.file, std::string(e.perception.mode == PerceptionMode::kCamera ? "perception.mode camera" : "grasp.source cloud") +
+                                   " needs an offscreen OpenGL context, and none can be made here: " + why);
+    if (renderer && camera)
       renderer->camera(*world, e.perception.camera, 64, 48, e.file, "perception.camera");
     if (renderer && e.render.enabled()) renderer->camera(*world, e.render.camera, 64, 48, e.file);
   }
@@ -482,7 +484,7 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
   fillEnvironment(s);
   // Images decide camera-mode outcomes and are what renders show: the renderer is recorded
   // whenever a trial renders anything.
-  if (e.render.enabled() || e.perception.mode == PerceptionMode::kCamera) {
+  if (e.render.enabled() || needsCamera(e)) {
     std::string why;
     const auto gl = GlContext::create(e.render.egl, &why);
     s.renderer = gl ? gl->description() : "none: " + why;

@@ -1,5 +1,7 @@
 #include "campaign/experiment.h"
 #include "campaign/robot_home.h"
+#include "campaign/trial.h"
+#include "bt/factory.h"
 
 #include <algorithm>
 #include <cmath>
@@ -183,5 +185,17 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
   if (e.jobs == 0) e.jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   return e;
 }
+
+bool needsCamera(const Experiment& e, const bt::TreeDocument& tree) {
+  bool cloud = false;
+  for (const auto& [value, where] : tree.attributeValues("WaitForGraspCandidates", "source")) {
+    if (value != "" && value != "model" && value != "cloud")
+      throw InputError(where, "WaitForGraspCandidates source=\"" + value + "\": expected model, cloud or nothing");
+    cloud |= value == "cloud";
+  }
+  return cloud || e.perception.mode == PerceptionMode::kCamera || e.task.grasp_source == TaskOptions::GraspSource::kCloud;
+}
+
+bool needsCamera(const Experiment& e) { return needsCamera(e, loadTree(e)); }
 
 }  // namespace mm

@@ -18,6 +18,10 @@
 
 namespace mm {
 
+namespace bt {
+class TreeDocument;
+}
+
 struct Experiment {
   std::string file;  ///< the YAML it came from
   std::string name = "quickstart";
@@ -75,6 +79,12 @@ RobotModel loadExperimentRobot(const Experiment& e);
 /// validates. Throws InputError (exit code 2).
 Experiment loadExperiment(const std::string& path, const std::vector<std::string>& sets,
                           const std::vector<std::string>& sweeps = {}, bool file_sweep = true);
+
+/// Whether the trials read the perception camera's images: camera perception, or grasps from its
+/// points (grasp.source: cloud, or a WaitForGraspCandidates of the tree with source="cloud"). Such
+/// a campaign needs an offscreen OpenGL context. The first form loads the experiment's tree.
+bool needsCamera(const Experiment& e);
+bool needsCamera(const Experiment& e, const bt::TreeDocument& tree);
 
 /// A sweep's cells: every combination of its factors' values (the first factor varies slowest),
 /// each as the "key=value" settings that make it.

@@ -90,7 +90,7 @@ void TrialRecord::describe(RecordArchive& a) {
     p.field("grasp_opening", k.grasp_opening, "m", "per finger when it was grasped");
     p.field("neighbours_moved", k.neighbours_moved, "m", "the farthest another object moved while this one was picked");
     p.field("in_hand_slip", k.in_hand_slip, "m", "how far it moved in the hand from the fingers closing to their opening (0: not let go of by a release)");
-    p.field("grasp_type", k.grasp_type, "", "top_down or side (empty: taken hold of without a planned grasp)");
+    p.field("grasp_type", k.grasp_type, "", "top_down, side or cloud (model-free, from the camera's points; empty: taken hold of without a planned grasp)");
     p.field("grasp_deviation", k.grasp_deviation, "m",
             "the source's grasp-pose deviation: the achieved in-hand position's offset from the planned one when the fingers closed (the simulator's truth)");
     p.field("grasp_deviation_angle", k.grasp_deviation_angle, "rad", "the same, rotation, up to the object's symmetries");
@@ -131,7 +131,7 @@ void TrialRecord::describe(RecordArchive& a) {
     g.list("tried", n_tried, [&](size_t j, RecordArchive& t) {
       if (t.reading() && k.tried.size() <= j) k.tried.resize(j + 1);
       GraspTry& c = k.tried[j];
-      t.field("type", c.type, "", "top_down or side");
+      t.field("type", c.type, "", "top_down, side or cloud (model-free, from the camera's points)");
       t.field("score", c.score, "", "higher first: wrist turn, clearance, force-closure margin, pad area, torque arm, hand tilt");
       t.field("closure_margin", c.closure_margin, "rad", "atan(pad friction) minus the larger angle between a contact normal and the line between the contacts (> 0: force closure)");
       t.field("contact_area", c.contact_area, "m^2", "pad area the object covers");

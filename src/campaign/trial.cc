@@ -18,7 +18,7 @@ namespace mm {
 
 TrialRunner::TrialRunner(const Experiment& e, const Cell& cell, const bt::TreeDocument& tree, std::string log_dir,
                          std::string date)
-    : e_(e), cell_(cell), doc_(tree), log_dir_(std::move(log_dir)), date_(std::move(date)) {
+    : e_(e), cell_(cell), doc_(tree), needs_camera_(needsCamera(e, tree)), log_dir_(std::move(log_dir)), date_(std::move(date)) {
   env_.T_world_place_target = cell.T_world_place_target;
   bt::registerTaskNodes(factory_, env_);
 }
@@ -38,7 +38,7 @@ RenderSetup::RenderSetup(RenderSetup&&) noexcept = default;
 RenderSetup setUpRendering(const Experiment& e) {
   RenderSetup r;
   r.options = e.render;
-  if (!e.render.enabled() && e.perception.mode != PerceptionMode::kCamera) return r;
+  if (!e.render.enabled() && !needsCamera(e)) return r;
   std::string why;
   r.renderer = Renderer::create(e.render.egl, &why);
   if (!r.renderer) {
@@ -77,7 +77,7 @@ TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial
   // Camera perception reads depth images rendered now, with the sensor's noise drawn from the
   // trial's own stream.
   Rng camera_noise = Rng::stream(e_.seed, trial, Purpose::kCamera);
-  if (renderer_ && e_.perception.mode == PerceptionMode::kCamera)
+  if (renderer_ && needs_camera_)
     backend.setCameraSource([&](const std::string& name, int width, int height, Frame& frame, std::string*) {
       frame = renderer_->render(world, renderer_->camera(world, name, width, height, e_.file), kDepth);
       applyDepthNoise(frame, e_.perception.noise, camera_noise);

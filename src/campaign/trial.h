@@ -67,6 +67,7 @@ class TrialRunner {
   const Experiment& e_;
   const Cell& cell_;
   const bt::TreeDocument& doc_;
+  bool needs_camera_ = false;  ///< needsCamera(e_, doc_)
   std::string log_dir_, date_, xml_;
   bt::TaskNodeEnv env_;
   bt::Factory factory_;

@@ -339,9 +339,7 @@ void FaultInjector::onPlanned(TrialContext& ctx, const Plan& plan) {
   PlanningScene scene;
   scene.finger_opening = step->opening;
   if (ctx.held >= 0) {
-    scene.has_attached = true;
-    scene.attached_half = ctx.held_record.half_size;
-    scene.T_tcp_attached = ctx.T_tcp_held;
+    attachObject(scene, ctx.held_record.half_size, ctx.T_tcp_held, ctx.held_pieces);
   }
   const std::vector<Obstacle> cell = world_.staticObstacles();
   const TruthScope world(ctx.hw, "a fault injected");

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <unordered_map>
 
 #include <Eigen/Eigenvalues>
@@ -136,9 +137,10 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
     if (!cell[i]) seedable.push_back(static_cast<int>(i));
   }
   // The neighbourhood a hand can touch: its fingers, its body and the straight approach.
-  const double reach = std::max({o.hand_half_width, o.hand_opening / 2 + o.finger_thickness}) +
+  const double reach = std::max({o.hand_half_width, o.hand_opening / 2 + o.finger_thickness}) + o.padding +
                        std::max(o.hand_back + o.hand_length + o.approach_clear, o.pad_z_max) + 0.01;
   const Grid grid(P, 0.02);
+  const double pad = o.padding;
   const CameraModel& cam = frame.camera;
   auto unseen = [&](const Vec3& p_world) {  // behind the observed surface, or where no depth is
     const Vec3 uvz = cam.project(p_world);
@@ -221,13 +223,13 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
           double clear = 0.02;
           for (const Local& l : local) {
             const double zz = l.p.z() - d, yy = l.p.y() - c, ay = std::abs(yy);
-            if (zz <= o.pad_z_max && zz >= -o.hand_back - o.approach_clear && std::abs(l.p.x()) <= o.pad_half_width &&
-                ay >= open && ay <= open + o.finger_thickness) {
+            if (zz <= o.pad_z_max + pad && zz >= -o.hand_back - o.approach_clear && std::abs(l.p.x()) <= o.pad_half_width + pad &&
+                ay >= open && ay <= open + o.finger_thickness + pad) {
               blocked = kFingers;
               break;
             }
-            if (zz < -o.hand_back && zz >= -o.hand_back - o.hand_length - o.approach_clear &&
-                std::abs(l.p.x()) <= o.hand_half_thickness && ay <= o.hand_half_width) {
+            if (zz < -o.hand_back + pad && zz >= -o.hand_back - o.hand_length - o.approach_clear &&
+                std::abs(l.p.x()) <= o.hand_half_thickness + pad && ay <= o.hand_half_width + pad) {
               blocked = kHand;
               break;
             }
@@ -359,6 +361,38 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   }
   res.seconds.hands = since(t0);
   return res;
+}
+
+int objectBetweenPads(const GraspCandidate& g, const std::vector<ObjectState>& objects, const CloudGraspOptions& o) {
+  const Mat3& R = g.T_world_tcp.linear();
+  const double open = g.width / 2 + o.finger_margin;
+  int found = -1;
+  for (size_t k = 0; k < objects.size(); ++k) {
+    const ObjectState& ob = objects[k];
+    std::vector<ObjectState> parts;
+    if (ob.shape == ObjectShape::kMesh && ob.pieces)
+      for (const ConvexPiece& piece : *ob.pieces) {
+        ObjectState one = ob;
+        one.pieces = std::make_shared<const std::vector<ConvexPiece>>(std::vector<ConvexPiece>{piece});
+        parts.push_back(std::move(one));
+      }
+    else
+      parts.push_back(ob);
+    bool between = false;
+    for (double fz = o.pad_z_min + 0.002; fz <= o.pad_z_max - 0.002 && !between; fz += 0.004)
+      for (double fx : {-0.8 * o.pad_half_width, 0.0, 0.8 * o.pad_half_width}) {
+        const Vec3 p = g.T_world_tcp * Vec3(fx, 0, fz);
+        for (const ObjectState& part : parts) {
+          double t1, t2;
+          Vec3 n1, n2;
+          if (lineThroughObject(part, p, R.col(1), t1, t2, n1, n2) && t2 > -open && t1 < open) between = true;
+        }
+      }
+    if (!between) continue;
+    if (found >= 0) return -2;
+    found = static_cast<int>(k);
+  }
+  return found;
 }
 
 }  // namespace mm

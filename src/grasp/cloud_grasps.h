@@ -53,6 +53,7 @@ struct CloudGraspOptions {
   double unknown_margin = 0.006;    ///< [m] a finger point this far behind the observed surface is in unseen space
   double max_unknown = 0.3;         ///< share of the fingers' points allowed in unseen space
   double approach_clear = 0.1;      ///< [m] the straight approach checked for points, back from the grasp
+  double padding = 0.0;             ///< [m] the fingers (but their inner faces) and the hand inflated by this (the planner's padding)
   double hand_length = 0.06;        ///< [m] the hand body behind its front, checked
   int max_candidates = 40;
   double nms_distance = 0.01;       ///< [m] a candidate this close to a better one ...
@@ -92,5 +93,9 @@ struct CloudGraspResult {
 /// world direction the TCP's x should point along (of the two hands turned half a turn about the
 /// approach, which are one grasp, the one nearer it); `rng` draws the seeds.
 CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, const Vec3& preferred_x, Rng& rng);
+
+/// The object of `objects` the pads of `g` close on (their perceived shapes and poses: a mesh
+/// object's pieces one by one): its index, -1 when they close on none, -2 when on two or more.
+int objectBetweenPads(const GraspCandidate& g, const std::vector<ObjectState>& objects, const CloudGraspOptions& o);
 
 }  // namespace mm

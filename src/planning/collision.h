@@ -19,6 +19,16 @@ struct PlanningScene {
   bool has_attached = false;
   Vec3 attached_half = Vec3::Zero();
   Pose T_tcp_attached = Pose::Identity();
+  /// The held object as several boxes in the TCP frame (a mesh object's convex pieces, each its
+  /// box): when not empty, these are checked instead of attached_half at T_tcp_attached.
+  struct AttachedBox {
+    Pose T_tcp_box = Pose::Identity();
+    Vec3 half = Vec3::Zero();
+  };
+  std::vector<AttachedBox> attached_boxes;
+  /// Obstacles the held object is not checked against (but the robot is): its support as it is
+  /// lifted straight off it.
+  std::vector<std::string> attached_ignore;
   /// Padding of the held object [m]; NaN = the checker's padding. Negative = a contact tolerance,
   /// for lifting off and setting down on a support surface.
   double attached_padding = std::numeric_limits<double>::quiet_NaN();
@@ -26,6 +36,23 @@ struct PlanningScene {
   /// Names of obstacles not to check (e.g. the object being grasped during approach).
   std::vector<std::string> ignore;
 };
+
+/// A convex piece's box in its object's frame: along the principal axes of its vertices (an
+/// irregular prism's, a pebble's box hugs it far closer than one along the object's axes).
+struct PieceBox {
+  Pose T_object_box = Pose::Identity();
+  Vec3 half = Vec3::Zero();
+};
+PieceBox pieceBox(const ConvexPiece& piece);
+
+/// Attaches a held object to `scene`: its box (`half` at T_tcp_object), and, for a mesh object of
+/// several convex pieces, one box per piece (each in the object's frame), so that an L or a ring
+/// in the hand is not checked as its whole bounding box.
+void attachObject(PlanningScene& scene, const Vec3& half, const Pose& T_tcp_object,
+                  const std::shared_ptr<const std::vector<ConvexPiece>>& pieces);
+
+/// The boxes the checkers take the held object as: attached_boxes, or the one box.
+std::vector<PlanningScene::AttachedBox> attachedBoxes(const PlanningScene& scene);
 
 class CollisionChecker {
  public:

@@ -1,5 +1,7 @@
 #include <fcl/fcl.h>
 
+#include <Eigen/Eigenvalues>
+
 #include <cmath>
 #include <map>
 #include <mutex>
@@ -129,15 +131,15 @@ class FclChecker final : public GeometricChecker {
     }
     hand_ = robot.handLink();
     MM_DEMAND(hand_ >= 0);
-    if (scene.has_attached) {
+    const double apad = std::isnan(scene.attached_padding) ? pad : scene.attached_padding;
+    for (const PlanningScene::AttachedBox& a : attachedBoxes(scene)) {
       Obstacle box;
-      const double apad = std::isnan(scene.attached_padding) ? pad : scene.attached_padding;
-      box.size = (scene.attached_half + Vec3::Constant(apad)).cwiseMax(1e-3);
-      attached_ = obstacleShape(box);
-      attached_.name = "held object";
-      // Pose relative to the hand link: T_hand_tcp * T_tcp_object.
+      box.size = (a.half + Vec3::Constant(apad)).cwiseMax(1e-3);
+      Body& held = attached_.emplace_back(obstacleShape(box));
+      held.name = "held object";
+      // Pose relative to the hand link: T_hand_tcp * T_tcp_box.
       const Pose T_hand_tcp = makePose(Vec3(0, 0, robot.spec().tcp_offset), Mat3::Identity());
-      attached_.T_local = T_hand_tcp * scene.T_tcp_attached;
+      held.T_local = T_hand_tcp * a.T_tcp_box;
     }
     // Self-collision: every primitive pair of the checked link pairs.
     for (const auto& [la, lb] : selfCollisionLinkPairs(robot, scene.finger_opening))
@@ -159,10 +161,11 @@ class FclChecker final : public GeometricChecker {
           return false;
         }
     }
-    if (scene_.has_attached) {
-      const Pose Ta = T_[hand_] * attached_.T_local;
+    for (const Body& held : attached_) {
+      const Pose Ta = T_[hand_] * held.T_local;
       for (const Body& o : world_)
-        if (collide(attached_, Ta, o, o.T_local)) {
+        if (std::find(scene_.attached_ignore.begin(), scene_.attached_ignore.end(), o.name) == scene_.attached_ignore.end() &&
+            collide(held, Ta, o, o.T_local)) {
           last_ = "held object / " + o.name;
           return false;
         }
@@ -180,7 +183,7 @@ class FclChecker final : public GeometricChecker {
  private:
   PlanningScene scene_;
   std::vector<Body> padded_, bare_, world_;
-  Body attached_;
+  std::vector<Body> attached_;
   int hand_ = -1;
   std::vector<std::pair<int, int>> self_pairs_;
   std::vector<Pose> T_;
@@ -226,6 +229,41 @@ double clearance(const RobotModel& robot, const PlanningScene& scene, const VecX
     }
   }
   return best;
+}
+
+PieceBox pieceBox(const ConvexPiece& piece) {
+  Vec3 mean = Vec3::Zero();
+  for (const Vec3& v : piece.vertices) mean += v;
+  mean /= static_cast<double>(std::max<size_t>(1, piece.vertices.size()));
+  Mat3 C = Mat3::Zero();
+  for (const Vec3& v : piece.vertices) C += (v - mean) * (v - mean).transpose();
+  Mat3 R = Eigen::SelfAdjointEigenSolver<Mat3>(C).eigenvectors();
+  if (R.determinant() < 0) R.col(0) = -R.col(0);
+  Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
+  for (const Vec3& v : piece.vertices) {
+    const Vec3 q = R.transpose() * (v - mean);
+    lo = lo.cwiseMin(q), hi = hi.cwiseMax(q);
+  }
+  return {makePose(mean + R * ((lo + hi) / 2), R), (hi - lo) / 2};
+}
+
+void attachObject(PlanningScene& scene, const Vec3& half, const Pose& T_tcp_object,
+                  const std::shared_ptr<const std::vector<ConvexPiece>>& pieces) {
+  scene.has_attached = true;
+  scene.attached_half = half;
+  scene.T_tcp_attached = T_tcp_object;
+  scene.attached_boxes.clear();
+  if (!pieces) return;
+  for (const ConvexPiece& piece : *pieces) {
+    const PieceBox b = pieceBox(piece);
+    scene.attached_boxes.push_back({T_tcp_object * b.T_object_box, b.half});
+  }
+}
+
+std::vector<PlanningScene::AttachedBox> attachedBoxes(const PlanningScene& scene) {
+  if (!scene.has_attached) return {};
+  if (!scene.attached_boxes.empty()) return scene.attached_boxes;
+  return {{scene.T_tcp_attached, scene.attached_half}};
 }
 
 const std::vector<std::string>& checkerNames() {

@@ -117,13 +117,13 @@ class SphereChecker final : public GeometricChecker {
     self_.build(robot, nl, 0.0);
     // The held object: a box on the hand, covered the same way.
     hand_ = robot.handLink();
-    if (scene.has_attached) {
-      const double apad = std::isnan(scene.attached_padding) ? pad : scene.attached_padding;
+    const double apad = std::isnan(scene.attached_padding) ? pad : scene.attached_padding;
+    for (const PlanningScene::AttachedBox& a : attachedBoxes(scene)) {
       CollisionShape box;
       box.type = CollisionShape::Type::kBox;
-      box.size = 2 * (scene.attached_half + Vec3::Constant(apad)).cwiseMax(1e-3);
+      box.size = 2 * (a.half + Vec3::Constant(apad)).cwiseMax(1e-3);
       box.link = hand_;
-      box.T_link_shape = makePose(Vec3(0, 0, robot.spec().tcp_offset), Mat3::Identity()) * scene.T_tcp_attached;
+      box.T_link_shape = makePose(Vec3(0, 0, robot.spec().tcp_offset), Mat3::Identity()) * a.T_tcp_box;
       std::vector<LocalSphere> held;
       coverShape(box, held);
       for (const auto& s : held) held_local_.push_back(s.c), held_radius_.push_back(s.r);
@@ -202,12 +202,17 @@ class SphereChecker final : public GeometricChecker {
     return false;
   }
 
+  bool heldIgnores(const std::string& name) const {
+    return std::find(scene_.attached_ignore.begin(), scene_.attached_ignore.end(), name) != scene_.attached_ignore.end();
+  }
+
   bool heldHit() {
     if (held_local_.empty()) return false;
     const Pose& T = T_[hand_];
     for (size_t i = 0; i < held_local_.size(); ++i) {
       const Vec3 c = T * held_local_[i];
       for (const WorldBox& b : boxes_) {
+        if (heldIgnores(b.name)) continue;
         const Vec3 e = ((b.Rt * (c - b.p)).cwiseAbs() - b.h).cwiseMax(0.0);
         if (e.squaredNorm() < held_radius_[i] * held_radius_[i]) {
           last_ = "held object / " + b.name;
@@ -215,6 +220,7 @@ class SphereChecker final : public GeometricChecker {
         }
       }
       for (const WorldSegment& s : segments_) {
+        if (heldIgnores(s.name)) continue;
         const double r = held_radius_[i] + s.r;
         if (pointSegmentDistanceSq(c, s.a, s.b) < r * r) {
           last_ = "held object / " + s.name;

@@ -345,6 +345,7 @@ class PlanExecution final : public Motion {
     r.grasp_deviation = (ctx_.T_tcp_held_actual.translation() - T_tcp_object.translation()).norm();
     r.grasp_deviation_angle = objectSymmetricAngle(ctx_.T_tcp_held_actual.linear(), T_tcp_object.linear(), shape, half);
     ctx_.held_shape = shape;
+    r.pieces = pieces;
     ctx_.held_pieces = std::move(pieces);
     // Held from the side: the hand near horizontal when the fingers closed (a tilted box's grasp
     // leans at most 50 degrees).
@@ -407,9 +408,7 @@ class PlanExecution final : public Motion {
     PlanningScene scene;
     scene.obstacles = ctx_.seen_obstacles;
     if (ctx_.held >= 0) {
-      scene.has_attached = true;
-      scene.attached_half = ctx_.held_record.half_size;
-      scene.T_tcp_attached = ctx_.T_tcp_held;
+      attachObject(scene, ctx_.held_record.half_size, ctx_.T_tcp_held, ctx_.held_pieces);
     }
     scene.finger_opening = step_->opening;
     auto checker = makeChecker("fcl", ctx_.robot, scene, 0.0);

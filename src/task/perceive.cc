@@ -46,6 +46,12 @@ bool captureFrame(TrialContext& ctx, Frame& frame, std::string* why, bool for_pe
   return true;
 }
 
+}  // namespace
+
+bool captureView(TrialContext& ctx, Frame& frame, std::string* why) { return captureFrame(ctx, frame, why, true); }
+
+namespace {
+
 // Camera mode: the camera's depth image through detectKnownObjects. Every detection is what the robot
 // knows, under an id of its own; a false one included (the robot finds out by trying). The
 // simulator's truth only scores it afterwards: each detection is matched to the true object

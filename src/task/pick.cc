@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "grasp/cloud_grasps.h"
 #include "planning/blend.h"
 #include "planning/chomp.h"
 #include "planning/time_parameterization.h"
@@ -20,10 +21,57 @@ namespace mm {
 std::vector<GraspCandidate> graspCandidates(TrialContext& ctx, const ObjectState& object) {
   std::vector<Obstacle> neighbours = ctx.statics;
   for (const ObjectState& b : ctx.objects)
-    if (b.index != object.index && !picked(ctx, b.index)) neighbours.push_back(boxOf(b));
+    if (b.index != object.index && !picked(ctx, b.index))
+      for (const Obstacle& piece : obstaclesOf(b)) neighbours.push_back(piece);
   const double preferred_yaw = yawOf(ctx.robot.fk(ctx.robot.home()).linear());
   const GraspOptions go = graspOptionsFor(ctx.robot.spec().gripper, ctx.options);
   return mm::graspCandidates(object, preferred_yaw, Vec3::Zero(), neighbours, go);
+}
+
+Failure cloudGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectState, std::vector<GraspCandidate>>>& out) {
+  out.clear();
+  const auto t = Clock::now();
+  StageRecord* st = &ctx.stage("cloud_grasps");
+  auto done = [&](const Failure& f) {
+    st->compute_seconds = since(t);
+    ctx.out.plan_pick_time += st->compute_seconds;
+    st->ok = f.ok();
+    return f;
+  };
+  Frame frame;
+  std::string why;
+  if (!captureView(ctx, frame, &why)) return done({"cloud_grasps", FailureKind::kPerception, why});
+  CloudGraspOptions co = cloudGraspOptionsFor(graspOptionsFor(ctx.robot.spec().gripper, ctx.options));
+  co.T_world_region = ctx.perception.T_world_crop;
+  co.region_half = ctx.perception.crop_half;
+  co.region_height = ctx.perception.crop_height;
+  co.finger_margin = ctx.options.finger_margin;
+  co.padding = ctx.options.padding;
+  co.seeds = ctx.options.cloud_seeds;
+  const Vec3 preferred_x = ctx.robot.fk(ctx.robot.home()).linear().col(0);
+  const CloudGraspResult r = cloudGrasps(frame, co, preferred_x, ctx.rng_grasp);
+  // Each candidate under the perceived object it closes on.
+  std::vector<ObjectState> known;
+  for (const ObjectState& o : ctx.objects)
+    if (!picked(ctx, o.index)) known.push_back(o);
+  int none = 0, several = 0;
+  std::vector<int> slot(known.size(), -1);
+  for (const GraspCandidate& g : r.candidates) {
+    const int k = objectBetweenPads(g, known, co);
+    if (k < 0) {
+      ++(k == -1 ? none : several);
+      continue;
+    }
+    if (slot[k] < 0) slot[k] = static_cast<int>(out.size()), out.push_back({known[k], {}});
+    out[slot[k]].second.push_back(g);
+  }
+  if (out.empty()) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "no grasp from the camera's points closes on one perceived object (%zu candidates: %d on none, %d on two or more)",
+                  r.candidates.size(), none, several);
+    return done({"cloud_grasps", FailureKind::kNoGrasp, buf});
+  }
+  return done({});
 }
 
 GraspOptions graspOptionsFor(const GripperSpec& gripper, const TaskOptions& task) {
@@ -74,12 +122,13 @@ struct GraspCheckers {
   std::unique_ptr<CollisionChecker> full, no_target;
 };
 
-// `margin`: the fingers open this much wider than the object; the tight pass (margin below
-// finger_margin) also checks with that padding.
-GraspCheckers graspCheckers(const TrialContext& ctx, const ObjectState& object, double margin) {
+// `margin`: the fingers open this much wider than the object (or than `half_width`, the widest
+// half width of the candidates' when they give it: grasps from the camera's points); the tight
+// pass (margin below finger_margin) also checks with that padding.
+GraspCheckers graspCheckers(const TrialContext& ctx, const ObjectState& object, double margin, double half_width = -1) {
   const TaskOptions& o = ctx.options;
   PlanningScene full_scene = planningScene(ctx, -1, false), approach_scene = planningScene(ctx, object.index, false);
-  const double widest = 2 * std::max(object.half_size.x(), object.half_size.y());
+  const double widest = half_width >= 0 ? 2 * half_width : 2 * std::max(object.half_size.x(), object.half_size.y());
   full_scene.finger_opening = approach_scene.finger_opening = std::min(ctx.robot.spec().gripper.travel, widest / 2 + margin);
   const double padding = margin < o.finger_margin ? std::min(o.padding, margin) : o.padding;
   return {makeChecker(o.checker, ctx.robot, full_scene, padding), makeChecker(o.checker, ctx.robot, approach_scene, padding)};
@@ -110,11 +159,23 @@ Failure tryGrasp(TrialContext& ctx, const ObjectState& object, const GraspCandid
   out.T_tcp_object = T_grasp.inverse() * object.T_world_object;
   // Lift with the object attached; it leaves the bin floor it rests on.
   PlanningScene ls = planningScene(ctx, object.index, false);
-  ls.has_attached = true;
-  ls.attached_half = object.half_size;
-  ls.T_tcp_attached = out.T_tcp_object;
-  ls.finger_opening = object.half_size.y();
-  ls.attached_padding = -kSupportTolerance;
+  attachObject(ls, object.half_size, out.T_tcp_object, object.pieces);
+  // The fingers closed on it: a grasp from the camera's points says how wide it closes on.
+  ls.finger_opening = g.type == GraspType::kCloud ? g.width / 2 : object.half_size.y();
+  // It rests on the floor and, in a pile, against its neighbours; a mesh object's pieces are
+  // checked as their boxes, which reach past the pieces: the lift lets them overlap this much,
+  // and lifted straight up it leaves the cell's parts it rests on (those whose top is not above
+  // its lowest point).
+  ls.attached_padding = object.pieces ? -kPiecesLiftTolerance : -kSupportTolerance;
+  if (object.pieces) {
+    double bottom = INFINITY;
+    for (const ConvexPiece& piece : *object.pieces)
+      for (const Vec3& v : piece.vertices) bottom = std::min(bottom, (object.T_world_object * v).z());
+    for (const Obstacle& s : ctx.statics) {
+      const double top = s.T_world.translation().z() + s.T_world.linear().row(2).cwiseAbs().dot(s.size);
+      if (s.type == Obstacle::Type::kBox && top <= bottom + kSupportTolerance) ls.attached_ignore.push_back(s.name);
+    }
+  }
   auto lifting = makeChecker(o.checker, ctx.robot, ls, o.padding);
   Pose T_lift = T_grasp;
   T_lift.translation().z() += o.lift_height;
@@ -174,8 +235,12 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
   if (!candidates[first < candidates.size() ? first : 0].rejected.empty())
     last = {"grasp_pose_ik", FailureKind::kNoGrasp, "no candidate in force closure: " + candidates[first < candidates.size() ? first : 0].rejected};
   bool found = false;
+  // Grasps from the camera's points say how wide they close on; the model's, the object's box does.
+  double half_width = -1;
+  for (const GraspCandidate& g : candidates)
+    if (g.type == GraspType::kCloud) half_width = std::max(half_width, g.width / 2);
   for (double margin : graspMargins(o)) {
-    GraspCheckers checkers = graspCheckers(ctx, object, margin);
+    GraspCheckers checkers = graspCheckers(ctx, object, margin, half_width);
     int tried = 0;
     for (size_t c = first; c < candidates.size() && tried < o.max_grasp_candidates; ++c) {
       const GraspCandidate& g = candidates[c];
@@ -226,7 +291,8 @@ Failure planPick(TrialContext& ctx, const GraspSolution& g, Plan& out) {
     return f.ok() ? f : ctx.fail(f);
   };
   PlanningScene full_scene = planningScene(ctx, -1, false);
-  const double widest = 2 * std::max(g.object.half_size.x(), g.object.half_size.y());
+  const double widest = g.candidate.type == GraspType::kCloud ? g.candidate.width
+                                                              : 2 * std::max(g.object.half_size.x(), g.object.half_size.y());
   const double margin = g.finger_margin > 0 ? g.finger_margin : o.finger_margin;
   full_scene.finger_opening = std::min(travel, widest / 2 + margin);
   auto full = makeChecker(o.checker, ctx.robot, full_scene, margin < o.finger_margin ? std::min(o.padding, margin) : o.padding);

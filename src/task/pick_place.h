@@ -40,6 +40,14 @@ int objectsInBinTruly(const TrialContext& ctx);
 /// Grasp candidates for `object`, best first (neighbours: the other perceived objects and the
 /// cell's statics), scored for the robot's gripper.
 std::vector<GraspCandidate> graspCandidates(TrialContext& ctx, const ObjectState& object);
+/// A frame of the perception camera, its extrinsics those the robot holds (the calibration's,
+/// corrected by the last registration against the cell); false with `why` when there is none.
+bool captureView(TrialContext& ctx, Frame& frame, std::string* why);
+/// Model-free candidates (grasp/cloud_grasps.h) from a fresh view of the perception camera, each
+/// under the perceived object not yet picked that its pads close on, objects in the order of their
+/// best candidate; a candidate closing on no perceived object or on two is dropped. Records stage
+/// "cloud_grasps"; a failure (no view, no candidate) is returned, not recorded.
+Failure cloudGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectState, std::vector<GraspCandidate>>>& out);
 /// The grasp options of `task` with the gripper's stroke, pad friction and geometry (the pads'
 /// extent and the hand body's, in the TCP frame) filled in.
 GraspOptions graspOptionsFor(const GripperSpec& gripper, const TaskOptions& task);

@@ -64,6 +64,20 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   }
   Pose T_obj_place = T_target;
   T_obj_place.translation().z() += o.place_clearance;
+  if (ctx.held_pieces) {
+    // A mesh object is checked as its pieces' boxes, which reach below its lowest point: set down,
+    // it is not checked against the surface it is set on, and may overlap its neighbours' boxes
+    // as much as when it was lifted.
+    ps.attached_padding = -kPiecesLiftTolerance;
+    double low = INFINITY;
+    for (const ConvexPiece& piece : *ctx.held_pieces)
+      for (const Vec3& v : piece.vertices) low = std::min(low, (T_obj_place * v).z());
+    for (const Obstacle& s : ctx.statics) {
+      const double top = s.T_world.translation().z() + s.T_world.linear().row(2).cwiseAbs().dot(s.size);
+      if (s.type == Obstacle::Type::kBox && top <= low + kSupportTolerance) ps.attached_ignore.push_back(s.name);
+    }
+    descending = makeChecker(o.checker, ctx.robot, ps, o.padding);
+  }
   const Pose T_tcp_now = ctx.robot.fk(q_lift);
   const double yaw_now = yawOf(T_tcp_now.linear());
   std::vector<std::pair<double, Pose>> options;

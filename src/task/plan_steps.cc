@@ -21,6 +21,20 @@ Obstacle boxOf(const ObjectState& o) {
   return b;
 }
 
+std::vector<Obstacle> obstaclesOf(const ObjectState& o) {
+  if (o.shape != ObjectShape::kMesh || !o.pieces) return {boxOf(o)};
+  std::vector<Obstacle> out;
+  for (const ConvexPiece& piece : *o.pieces) {
+    const PieceBox pb = pieceBox(piece);
+    Obstacle b;
+    b.size = pb.half;
+    b.T_world = o.T_world_object * pb.T_object_box;
+    b.name = o.name;
+    out.push_back(b);
+  }
+  return out;
+}
+
 bool picked(const TrialContext& ctx, int index) {
   return std::find(ctx.picked.begin(), ctx.picked.end(), index) != ctx.picked.end();
 }
@@ -30,7 +44,8 @@ PlanningScene planningScene(const TrialContext& ctx, int exclude, bool attached)
   s.obstacles = ctx.statics;
   s.obstacles.insert(s.obstacles.end(), ctx.seen_obstacles.begin(), ctx.seen_obstacles.end());
   for (const ObjectState& o : ctx.objects)
-    if (o.index != exclude && !picked(ctx, o.index)) s.obstacles.push_back(boxOf(o));
+    if (o.index != exclude && !picked(ctx, o.index))
+      for (const Obstacle& b : obstaclesOf(o)) s.obstacles.push_back(b);
   for (const PickRecord& p : ctx.out.picks)
     if (p.at_target && p.object != exclude) {
       ObjectState placed;
@@ -38,12 +53,11 @@ PlanningScene planningScene(const TrialContext& ctx, int exclude, bool attached)
       placed.name = "placed_" + std::to_string(p.object);
       placed.half_size = p.half_size;
       placed.T_world_object = p.T_world_target;
-      s.obstacles.push_back(boxOf(placed));
+      if (p.pieces) placed.shape = ObjectShape::kMesh, placed.pieces = p.pieces;
+      for (const Obstacle& b : obstaclesOf(placed)) s.obstacles.push_back(b);
     }
   if (attached && ctx.held >= 0) {
-    s.has_attached = true;
-    s.attached_half = ctx.held_record.half_size;
-    s.T_tcp_attached = ctx.T_tcp_held;
+    attachObject(s, ctx.held_record.half_size, ctx.T_tcp_held, ctx.held_pieces);
     s.finger_opening = ctx.held_record.half_size.y();
   }
   return s;

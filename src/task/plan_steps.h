@@ -11,6 +11,9 @@ namespace mm {
 
 using Clock = std::chrono::steady_clock;
 inline constexpr double kSupportTolerance = 0.003;  ///< [m] a held object may touch its support this much
+/// [m] as lifted off, a held mesh object (checked as its convex pieces' boxes) may overlap its
+/// neighbours this much
+inline constexpr double kPiecesLiftTolerance = 0.008;
 inline constexpr double kLimitMargin = 0.05;        ///< [rad] grasp and place solutions keep off the limits
 /// [rad] A plan's start and where the arm was last sent. Known seam: a plan that follows a
 /// straight-line move starts from the line's last IK waypoint, while the arm was sent to the last
@@ -29,6 +32,10 @@ VecX endOf(const JointTrajectory& t);
 double since(Clock::time_point t);
 /// A perceived object as a planning-scene obstacle (a box or a cylinder).
 Obstacle boxOf(const ObjectState& o);
+/// An object as the planner avoids it: a mesh object of several convex pieces as one box per
+/// piece (in the object's frame: an L, a ring or a cup leaves room where its bounding box has
+/// none), anything else its box.
+std::vector<Obstacle> obstaclesOf(const ObjectState& o);
 /// Whether the object `index` has been picked in this trial.
 bool picked(const TrialContext& ctx, int index);
 /// The world as the planner knows it: the static cell, the obstacles sensed, the perceived objects

@@ -17,6 +17,11 @@ void TaskOptions::declare(ConfigArchive& a) {
   a.value("payload_compensation", payload_compensation,
           "while an object is held, the servo compensates its weight and commanded acceleration (its kind's nominal mass at "
           "the planned grasp's centre, as Franka's setLoad); false: the arm sags under it");
+  a.named("source", grasp_source, {{"model", GraspSource::kModel}, {"cloud", GraspSource::kCloud}},
+          "model: candidates from each perceived object's shape and pose; cloud: model-free 6-DoF candidates from the "
+          "perception camera's depth image (GPD's geometry), each tried on the perceived object it closes on (a tree's "
+          "WaitForGraspCandidates may choose with its source port)");
+  a.value("cloud_seeds", cloud_seeds, {10, 5000}, "", "cloud grasps: points drawn a view to build hands at");
   a.value("max_candidates", max_grasp_candidates, {1, 64}, "", "grasp candidates tried per object before the pick fails");
   a.value("finger_margin", finger_margin, {0.002, 0.04}, "m",
           "fingers open this much wider than the object's half width before the approach");

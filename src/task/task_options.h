@@ -34,6 +34,12 @@ struct TaskOptions {
   double grasp_force = 40.0;             ///< [N] per finger
   bool payload_compensation = true;      ///< the servo knows the held object's nominal mass
   double finger_margin = 0.012;          ///< [m] per finger beyond the object's half width when open
+  /// Where grasp candidates come from: the perceived objects' models (grasp/grasp.h), or the depth
+  /// camera's points with no model (grasp/cloud_grasps.h), each held by the perceived object it
+  /// closes on.
+  enum class GraspSource { kModel, kCloud };
+  GraspSource grasp_source = GraspSource::kModel;
+  int cloud_seeds = 400;                 ///< cloud grasps: seeds drawn a view
   double tight_margin = 0.0;             ///< [m] finger margin and approach padding when nothing fits otherwise (0: never; clutter: 0.004)
   bool weld = false;                     ///< weld-on-grasp (attach plugin) instead of friction
   double drop_distance = 0.03;           ///< [m] object this far from its in-hand pose = dropped

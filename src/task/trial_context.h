@@ -61,7 +61,7 @@ struct Plan {
   Vec3 object_half = Vec3::Zero();         ///< pick: its half sizes [m]
   ObjectShape object_shape = ObjectShape::kBox;  ///< pick: its shape
   std::shared_ptr<const std::vector<ConvexPiece>> object_pieces;  ///< pick: a mesh object's convex pieces
-  std::string grasp_type;                  ///< pick: "top_down" or "side"
+  std::string grasp_type;                  ///< pick: "top_down", "side" or "cloud"
   Pose T_tcp_object = Pose::Identity();    ///< pick: the object in the hand, as planned
   Pose T_world_grasp = Pose::Identity();   ///< pick: the TCP at the grasp
   int grasp_candidates_tried = 0;
@@ -126,6 +126,7 @@ class TrialContext {
   const TaskOptions& options;
   const PerceptionOptions& perception;
   Rng rng_perception, rng_ik, rng_plan;
+  Rng rng_grasp;  ///< cloud grasps' seeds
   std::unique_ptr<IkSolver> ik, ik_near;
   Executor executor;
   TrialOutcome out;

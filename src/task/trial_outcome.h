@@ -1,9 +1,11 @@
 // One trial's record: what happened, where it failed and why, how long each stage took.
 #pragma once
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "core/failure.h"
+#include "core/geometry.h"
 #include "core/pose.h"
 
 namespace mm {
@@ -48,7 +50,9 @@ struct PickRecord {
   double grasp_opening = 0;        ///< [m] per finger after closing
   double neighbours_moved = 0;     ///< [m] the farthest another object moved while this one was picked
   double in_hand_slip = 0;         ///< [m] how far it moved in the hand from the fingers closing to the release (ground truth)
-  std::string grasp_type;          ///< "top_down" or "side" (empty: taken hold of without a planned grasp)
+  /// A mesh object's convex pieces as perceived (the planner avoids it as them once placed); not recorded.
+  std::shared_ptr<const std::vector<ConvexPiece>> pieces;
+  std::string grasp_type;          ///< "top_down", "side" or "cloud" (empty: taken hold of without a planned grasp)
   double grasp_deviation = 0;      ///< [m] the achieved in-hand pose's offset from the planned one, at the fingers' closing (ground truth)
   double grasp_deviation_angle = 0;  ///< [rad] the same, rotation (up to the object's symmetries)
   bool first_pass = false;         ///< let go of at its target with no failure since the previous one was
@@ -57,7 +61,7 @@ struct PickRecord {
 
 /// One grasp candidate filterGrasps looked at: its scores and what became of it.
 struct GraspTry {
-  std::string type;            ///< "top_down" or "side"
+  std::string type;            ///< "top_down", "side" or "cloud"
   double score = 0;
   double closure_margin = 0;   ///< [rad] force-closure margin (atan(mu) minus the larger contact angle)
   double contact_area = 0;     ///< [m^2] pad area the object covers

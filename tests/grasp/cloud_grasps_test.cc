@@ -2,14 +2,20 @@
 // generated objects (every grade) dropped into the bin, seen once from the overhead camera with
 // the stereo noise; a candidate is right when, closed from its opening, its pads meet one object
 // in force closure and its fingers, opened, are inside no object and above the floor.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cstdio>
 #include <memory>
 
+#include <fstream>
+
+#include "../campaign/cli_helpers.h"
+#include "campaign/record.h"
 #include "core/rng.h"
 #include "grasp/cloud_grasps.h"
+#include "planning/collision.h"
 #include "perception/camera_perception.h"
 #include "render/renderer.h"
 #include "../render/test_renderer.h"
@@ -177,6 +183,62 @@ TEST(CloudGrasps, TheSameViewAndSeedGiveTheSameCandidates) {
     EXPECT_EQ(ra.candidates[k].type, GraspType::kCloud);
   }
   EXPECT_NE(ra.candidates.front().T_world_tcp.matrix(), rc.candidates.front().T_world_tcp.matrix()) << "other seeds, other samples";
+}
+
+TEST(CloudGrasps, APieceBoxHoldsThePieceAndHugsItCloserThanTheObjectsAxes) {
+  // A thin bar turned 30 degrees about z in its object's frame: its box along the object's axes is
+  // far larger than along its own.
+  ConvexPiece bar;
+  const Mat3 R = rotZ(M_PI / 6);
+  for (double x : {-0.04, 0.04})
+    for (double y : {-0.005, 0.005})
+      for (double z : {0.0, 0.02}) bar.vertices.push_back(Vec3(0.01, 0.02, 0) + R * Vec3(x, y, z));
+  const PieceBox b = pieceBox(bar);
+  double volume_aabb = 1;
+  Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
+  for (const Vec3& v : bar.vertices) {
+    const Vec3 q = b.T_object_box.inverse() * v;
+    EXPECT_TRUE((q.cwiseAbs() - b.half).maxCoeff() < 1e-9) << "every vertex inside its box";
+    lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+  }
+  for (int k = 0; k < 3; ++k) volume_aabb *= hi[k] - lo[k];
+  EXPECT_NEAR(8 * b.half.prod(), 0.08 * 0.01 * 0.02, 1e-9) << "the bar's own box";
+  EXPECT_GT(volume_aabb, 3 * 8 * b.half.prod());
+}
+
+TEST(CloudGrasps, ACampaignPicksWithGraspsFromTheCameraPoints) {
+  // Two rounds of the pile scene by the tree whose WaitForGraspCandidates asks for the camera's
+  // points (nothing else in the experiment does: the tree's port sets the camera up).
+  testing_cli::TempDir dir;
+  const std::string out = (dir.path() / "cloud").string();
+  const auto r = testing_cli::runMinimanip("run experiments/clutter_pile.yaml --trials 2 --jobs 2 --set progress=none "
+                                           "--set tree=experiments/trees/clutter_removal_cloud.xml --out " + out);
+  ASSERT_EQ(r.code, 0) << r.out;
+  int chosen = 0, in_tray = 0;
+  std::ifstream in(out + "/trials.jsonl");
+  for (std::string line; std::getline(in, line);) {
+    const TrialRecord t = fromJsonLine(line, "trials.jsonl");
+    EXPECT_EQ(t.o.tree_status, "SUCCESS");
+    for (const GraspSelection& s : t.o.grasp_selections)
+      for (const GraspTry& g : s.tried) {
+        EXPECT_EQ(g.type, "cloud") << "every grasp tried came from the points";
+        chosen += g.result == "chosen";
+      }
+    for (const PickRecord& p : t.o.picks) EXPECT_EQ(p.grasp_type, "cloud");
+    for (const GraspAttempt& a : t.o.grasp_attempts) in_tray += a.success();
+    EXPECT_TRUE(std::any_of(t.o.stages.begin(), t.o.stages.end(), [](const StageRecord& s) { return s.name == "cloud_grasps"; }));
+  }
+  EXPECT_GE(chosen, 1);
+  EXPECT_GE(in_tray, 1) << "an object grasped from the points reached the tray";
+  // A source the node does not know is bad input: exit 2 before any trial, naming the tree's line.
+  const std::string bad = (dir.path() / "bad.xml").string();
+  std::ofstream(bad) << R"(<root BTCPP_format="4"><BehaviorTree ID="T"><Sequence><TriggerPointCloud/>)"
+                        R"(<WaitForGraspCandidates source="clouds" candidates="{c}"/></Sequence></BehaviorTree></root>)";
+  const auto b = testing_cli::runMinimanip("run experiments/clutter_pile.yaml --trials 1 --set progress=none --set tree=" + bad +
+                                           " --out " + (dir.path() / "b").string());
+  EXPECT_EQ(b.code, 2) << b.out;
+  EXPECT_THAT(b.out, ::testing::HasSubstr("bad.xml:1")) << b.out;
+  EXPECT_THAT(b.out, ::testing::HasSubstr("expected model, cloud or nothing")) << b.out;
 }
 
 }  // namespace

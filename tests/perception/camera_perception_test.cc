@@ -289,5 +289,26 @@ TEST(Truth, CameraModeTrialsWithFaultsNeverReadTheTruthToDecide) {
   }
 }
 
+TEST(Truth, CameraModeGraspsFromThePointsNeverReadTheTruthToDecide) {
+  // Grasps from the camera's points, each tried on the detection its pads close on: the truth
+  // stays closed (a read would be a crash of the trial).
+  testing_cli::TempDir tmp;
+  const std::string out = (tmp.path() / "cloud").string();
+  const auto run = testing_cli::runMinimanip(
+      "run experiments/camera.yaml --trials 4 --jobs 2 --set progress=none --set tree=experiments/trees/bin_picking_fixed.xml "
+      "--set grasp.source=cloud --out " + out);
+  ASSERT_EQ(run.code, 0) << run.out;
+  int picks = 0;
+  for (const auto& t : testing_cli::readTrials(out)) {
+    EXPECT_NE(t["failure_kind"], "crash") << t.dump();
+    EXPECT_NE(t["tree_status"], "ERROR") << t.dump();
+    for (const auto& p : t["picks"]) {
+      EXPECT_EQ(p["grasp_type"], "cloud");
+      ++picks;
+    }
+  }
+  EXPECT_GE(picks, 4);
+}
+
 }  // namespace
 }  // namespace mm
