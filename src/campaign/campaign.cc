@@ -260,7 +260,9 @@ std::string checkCampaignInput(const Experiment& e) {
     std::string why;
     const auto renderer = Renderer::create(e.render.egl, &why);
     if (!renderer && camera)
-      throw InputError(e.file, std::string(e.perception.mode == PerceptionMode::kCamera ? "perception.mode camera" : "grasp.source cloud") +
+      throw InputError(e.file, std::string(e.perception.mode == PerceptionMode::kCamera            ? "perception.mode camera"
+                                           : e.task.grasp_source == TaskOptions::GraspSource::kCloud ? "grasp.source cloud"
+                                                                                                    : "the tree's WaitForGraspCandidates source=\"cloud\" (" + e.tree_path + ")") +
                                    " needs an offscreen OpenGL context, and none can be made here: " + why);
     if (renderer && camera)
       renderer->camera(*world, e.perception.camera, 64, 48, e.file, "perception.camera");

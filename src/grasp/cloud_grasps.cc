@@ -46,6 +46,8 @@ class Grid {
   std::unordered_map<int64_t, std::vector<int>> cells_;
 };
 
+enum CellPart : char { kNotCell = 0, kFloor = 1, kWall = 2 };
+
 // A point in the hand's frame: x across the pads, y the closing direction, z the approach.
 struct Local {
   Vec3 p;
@@ -127,13 +129,16 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   const Pose T_region_world = o.T_world_region.inverse();
   const Vec3 down = -o.T_world_region.linear().col(2);
   // The cell's own points (the floor, the walls: outside the footprint less a margin) are
-  // obstacles, never seeds, never between the pads.
+  // obstacles, never seeds. The pads never close on a wall; the floor under an object is not
+  // between them (the fingers' volume keeps clear of it).
   std::vector<int> seedable;
   std::vector<char> cell(P.size(), 0);
   for (size_t i = 0; i < P.size(); ++i) {
     const Vec3 q = T_region_world * P[i];
-    cell[i] = q.z() <= o.floor_margin || std::abs(q.x()) > o.region_half.x() - o.wall_margin ||
-              std::abs(q.y()) > o.region_half.y() - o.wall_margin;
+    // The floor: low, and facing up (an object's side near the floor faces sideways).
+    const bool floor = q.z() <= o.floor_margin && (T_region_world.linear() * N[i]).z() > std::cos(o.floor_normal);
+    const bool wall = std::abs(q.x()) > o.region_half.x() - o.wall_margin || std::abs(q.y()) > o.region_half.y() - o.wall_margin;
+    cell[i] = wall ? kWall : floor ? kFloor : kNotCell;
     if (!cell[i]) seedable.push_back(static_cast<int>(i));
   }
   // The neighbourhood a hand can touch: its fingers, its body and the straight approach.
@@ -192,14 +197,14 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
         int best_contacts = 0, best_points = 0;
         double best_clear = 0, best_margin = 0;
         enum { kNone, kOnCell, kFingers, kHand, kWide, kSparse, kAntipodal } why = kNone;
-        for (double d = -(o.pad_z_max - 0.003); d <= -o.pad_z_min + 1e-9; d += o.depth_step) {
+        for (double d = o.min_bite - o.pad_z_max; d <= -o.pad_z_min + 1e-9; d += o.depth_step) {
           // Between the pads: the run of points along y around the seed, split by a gap a finger fits in.
           std::vector<std::pair<double, bool>> ys;  // y, a cell point
           for (const Local& l : local) {
             const double zz = l.p.z() - d;
-            if (std::abs(l.p.x()) <= o.pad_half_width && zz >= o.pad_z_min && zz <= o.pad_z_max &&
+            if (cell[l.index] != kFloor && std::abs(l.p.x()) <= o.pad_half_width && zz >= o.pad_z_min && zz <= o.pad_z_max &&
                 std::abs(l.p.y()) <= o.hand_opening / 2 + o.finger_thickness)
-              ys.emplace_back(l.p.y(), cell[l.index] != 0);
+              ys.emplace_back(l.p.y(), cell[l.index] == kWall);
           }
           std::sort(ys.begin(), ys.end());
           double lo = 0, hi = 0;
@@ -208,7 +213,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
             if (yy > hi && yy - hi < o.finger_thickness) hi = yy, on_cell |= is_cell;
           for (auto it = ys.rbegin(); it != ys.rend(); ++it)
             if (it->first < lo && lo - it->first < o.finger_thickness) lo = it->first, on_cell |= it->second;
-          if (on_cell) {  // the pads would close on the floor or a wall
+          if (on_cell) {  // the pads would close on a wall
             if (!have) why = kOnCell;
             break;
           }
@@ -234,7 +239,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
               break;
             }
             if (std::abs(l.p.x()) <= o.pad_half_width && zz >= o.pad_z_min && zz <= o.pad_z_max) {
-              if (ay < open) ++between;
+              if (ay < open) between += cell[l.index] != kFloor;
               else clear = std::min(clear, ay - open - o.finger_thickness);
             }
           }
@@ -256,7 +261,9 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
           bool filled[2][kNx][kNz] = {};
           for (const Local& l : local) {
             const double zz = l.p.z() - d;
-            if (std::abs(l.p.x()) > o.pad_half_width || zz < o.pad_z_min || zz > o.pad_z_max || l.p.y() < lo || l.p.y() > hi) continue;
+            if (cell[l.index] == kFloor || std::abs(l.p.x()) > o.pad_half_width || zz < o.pad_z_min || zz > o.pad_z_max || l.p.y() < lo ||
+                l.p.y() > hi)
+              continue;
             const int ix = std::clamp(static_cast<int>((l.p.x() + o.pad_half_width) / (2 * o.pad_half_width) * kNx), 0, kNx - 1);
             const int iz = std::clamp(static_cast<int>((zz - o.pad_z_min) / (o.pad_z_max - o.pad_z_min) * kNz), 0, kNz - 1);
             for (int side = 0; side < 2; ++side) {

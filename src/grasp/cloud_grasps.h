@@ -37,15 +37,18 @@ struct CloudGraspOptions {
   Vec3 region_half = Vec3::Zero();  ///< x, y [m]
   double region_margin = 0.03;      ///< [m] beyond the footprint (the walls' tops)
   double region_height = 0.15;      ///< [m] above the floor
-  double floor_margin = 0.01;       ///< [m] points this close to the floor are floor (its noise: 2 mm sigma at 1.2 m): obstacles, never seeds
+  double floor_margin = 0.01;       ///< [m] points this close to the floor (its noise: 2 mm sigma at 1.2 m) ...
+  double floor_normal = 0.5;        ///< [rad] ... and whose normal is within this of the floor's
   double wall_margin = 0.004;       ///< [m] points this close to the footprint's edge, or beyond, are the walls'
+                                    ///< (floor and walls: obstacles, never seeds, never between the pads)
   double voxel = 0.003;             ///< [m] one point per voxel
   double normal_radius = 0.008;     ///< [m] neighbours of a normal's fit
   double frame_radius = 0.012;      ///< [m] normals of a seed's frame
   int seeds = 400;
-  int approach_steps = 8;           ///< turns about the frame's axis, -90 .. +90 degrees
+  int approach_steps = 8;           ///< turns about the frame's axis from -90 degrees in steps of 180 / approach_steps (8: to +67.5)
   double max_tilt = 0.9;            ///< [rad] the approach from straight down
   double depth_step = 0.004;        ///< [m] the push along the approach
+  double min_bite = 0.012;          ///< [m] the fingertips at least this far past the seed (GPD's init_bite: 0.01)
   double finger_margin = 0.012;     ///< [m] each finger opens this far beyond the points between them
   double cone = 0.35;               ///< [rad] a contact face's normal within this of the closing axis (GPD: 20 degrees)
   int min_contacts = 4;             ///< cells of the pad (of 3 x 6) the object fills, on each side
@@ -58,13 +61,14 @@ struct CloudGraspOptions {
   int max_candidates = 40;
   double nms_distance = 0.01;       ///< [m] a candidate this close to a better one ...
   double nms_angle = 0.35;          ///< [rad] ... and turned less than this from it is dropped
-  // The gripper in the TCP frame (z along the approach, the fingers closing along y), as GraspOptions.
+  // The gripper in the TCP frame (z along the approach, the fingers closing along y), as GraspOptions;
+  // the defaults are the Panda's hand as trials derive it (cloudGraspOptionsFor).
   double hand_opening = 0.08;       ///< [m] the full stroke
   double finger_thickness = 0.018;  ///< [m] along y
   double pad_half_width = 0.0105;   ///< [m] along x
-  double pad_z_min = -0.0416, pad_z_max = 0.0124;  ///< [m] the pads along z (the tip: max)
-  double hand_back = 0.0416;        ///< [m] the hand body's front behind the TCP
-  double hand_half_thickness = 0.031, hand_half_width = 0.102;  ///< [m] the hand body along x, y
+  double pad_z_min = -0.045, pad_z_max = 0.009;  ///< [m] the pads along z (the tip: max)
+  double hand_back = 0.0414;        ///< [m] the hand body's front behind the TCP
+  double hand_half_thickness = 0.042, hand_half_width = 0.102;  ///< [m] the hand body along x, y
   // Score weights.
   double contact_weight = 1.0, closure_weight = 1.0, points_weight = 0.5, tilt_weight = 0.5, clearance_weight = 10.0;
 };

@@ -235,12 +235,11 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
   if (!candidates[first < candidates.size() ? first : 0].rejected.empty())
     last = {"grasp_pose_ik", FailureKind::kNoGrasp, "no candidate in force closure: " + candidates[first < candidates.size() ? first : 0].rejected};
   bool found = false;
-  // Grasps from the camera's points say how wide they close on; the model's, the object's box does.
-  double half_width = -1;
-  for (const GraspCandidate& g : candidates)
-    if (g.type == GraspType::kCloud) half_width = std::max(half_width, g.width / 2);
   for (double margin : graspMargins(o)) {
-    GraspCheckers checkers = graspCheckers(ctx, object, margin, half_width);
+    // Grasps from the camera's points were cleared at finger_margin: no tight pass for them.
+    const bool cloud = candidates[first < candidates.size() ? first : 0].type == GraspType::kCloud;
+    if (cloud && margin < o.finger_margin) break;
+    GraspCheckers checkers = graspCheckers(ctx, object, margin);
     int tried = 0;
     for (size_t c = first; c < candidates.size() && tried < o.max_grasp_candidates; ++c) {
       const GraspCandidate& g = candidates[c];
@@ -255,7 +254,15 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
       if (failed_before) continue;
       ++tried;
       ++ctx.out.grasp_candidates_tried;
-      last = tryGrasp(ctx, object, g, checkers, approach_distance, ctx.rng_ik, out, ctx.out.collision_checks);
+      if (g.type == GraspType::kCloud) {
+        // A grasp from the points says how wide it closes: the fingers are checked where they open
+        // for it, not at the object's box.
+        GraspCheckers own = graspCheckers(ctx, object, margin, g.width / 2);
+        last = tryGrasp(ctx, object, g, own, approach_distance, ctx.rng_ik, out, ctx.out.collision_checks);
+        ctx.out.collision_checks += own.full->checks() + own.no_target->checks();
+      } else {
+        last = tryGrasp(ctx, object, g, checkers, approach_distance, ctx.rng_ik, out, ctx.out.collision_checks);
+      }
       note(g, last.ok() ? "chosen" : last.stage + ": " + last.reason);
       if (!last.ok()) continue;
       found = true;

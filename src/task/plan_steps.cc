@@ -58,7 +58,10 @@ PlanningScene planningScene(const TrialContext& ctx, int exclude, bool attached)
     }
   if (attached && ctx.held >= 0) {
     attachObject(s, ctx.held_record.half_size, ctx.T_tcp_held, ctx.held_pieces);
-    s.finger_opening = ctx.held_record.half_size.y();
+    // A grasp from the points closes across any direction of the object: the fingers are where
+    // they closed, not at its box's y.
+    const bool cloud = ctx.held_record.grasp_type == "cloud" && ctx.held_record.grasp_opening > 0;
+    s.finger_opening = cloud ? ctx.held_record.grasp_opening : ctx.held_record.half_size.y();
   }
   return s;
 }
