@@ -16,6 +16,11 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
+// One integer for a cell of a grid (each index within 2^20 cells of the origin).
+int64_t cellKey(const Eigen::Vector3i& c) {
+  return (static_cast<int64_t>(c.x() + (1 << 20)) << 42) | (static_cast<int64_t>(c.y() + (1 << 20)) << 21) | (c.z() + (1 << 20));
+}
+
 // Points by the cube of side `cell` they fall in: neighbours within a radius in a few lookups.
 class Grid {
  public:
@@ -38,9 +43,7 @@ class Grid {
 
  private:
   Eigen::Vector3i cellOf(const Vec3& p) const { return (p / cell_).array().floor().cast<int>(); }
-  static int64_t key(const Eigen::Vector3i& c) {
-    return (static_cast<int64_t>(c.x() + (1 << 20)) << 42) | (static_cast<int64_t>(c.y() + (1 << 20)) << 21) | (c.z() + (1 << 20));
-  }
+  static int64_t key(const Eigen::Vector3i& c) { return cellKey(c); }
   const std::vector<Vec3>& points_;
   double cell_;
   std::unordered_map<int64_t, std::vector<int>> cells_;
@@ -84,8 +87,7 @@ PointCloud cloudFromDepth(const Frame& frame, const CloudGraspOptions& o) {
       if (!(z > 0)) continue;
       const Vec3 p = cam.unproject(u, v, z), q = T_region_world * p;
       if (std::abs(q.x()) > hx || std::abs(q.y()) > hy || q.z() < -0.01 || q.z() > o.region_height) continue;
-      const Eigen::Vector3i c = (p / o.voxel).array().floor().cast<int>();
-      const int64_t k = (static_cast<int64_t>(c.x() + (1 << 20)) << 42) | (static_cast<int64_t>(c.y() + (1 << 20)) << 21) | (c.z() + (1 << 20));
+      const int64_t k = cellKey((p / o.voxel).array().floor().cast<int>());
       const auto [it, fresh] = voxel_of.emplace(k, static_cast<int>(sum.size()));
       if (fresh) sum.push_back(Vec3::Zero()), count.push_back(0);
       sum[it->second] += p;
