@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "cli_helpers.h"
+#include "../sanitized.h"
 
 namespace mm {
 namespace {
@@ -46,7 +47,8 @@ struct Interleaved {
 };
 
 TEST(Gate, PassesAnUnchangedBuildAndFailsASlowedPlanner) {
-  Interleaved runs(2, 12, 40);
+  // The planner slowed 40 times; 10 under the sanitizers (as far past any noise, a quarter of the time).
+  Interleaved runs(2, 12, testing_sanitized::sanitizedOr(10, 40));
   const std::string th = runs.d.file("gate.yaml", kBaselineOnly), timing = runs.d.file("timing.yaml", kTimingOnly);
 
   const RunResult same = runMinimanip("gate " + runs.same + " --thresholds " + th + " --baseline " + runs.base);
@@ -67,7 +69,7 @@ TEST(Gate, PassesAnUnchangedBuildAndFailsASlowedPlanner) {
   EXPECT_THAT(slow.out, HasSubstr("REGRESSION"));
   // ...and so do its wall timings alone (Mann-Whitney and the ratio). The same build's timings are
   // judged too, but their verdict is not asserted: under ctest -j a busy machine may slow one run
-  // (wall time is measured, never asserted; the x40 slowdown is far past any such noise).
+  // (wall time is measured, never asserted; the slowdown is far past any such noise).
   const RunResult slow_t = runMinimanip("gate " + runs.slow + " --thresholds " + timing + " --baseline " + runs.base);
   EXPECT_EQ(slow_t.code, 1) << slow_t.out;
   EXPECT_THAT(slow_t.out, HasSubstr("FAIL  timing.plan_pick_time"));

@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "cli_helpers.h"
+#include "../sanitized.h"
 
 namespace mm {
 namespace {
@@ -149,7 +150,7 @@ TEST(Resume, KilledAtRandomMomentsThenResumedEqualsAnUninterruptedRun) {
   const fs::path jsonl = fs::path(out) / "trials.jsonl";
   // Enough trials that every round lands mid-campaign: a mock trial of the quickstart takes about
   // 20 ms with two workers (its 4 s cycle).
-  const int kTrials = 60;
+  const int kTrials = testing_sanitized::sanitizedOr(36, 60);  // 36 under the sanitizers
   const std::string args = kMock + " --trials " + std::to_string(kTrials) + " --jobs 2 --set bt.log=all --out " + out;
   std::mt19937 rng(2026);
   int supervisor_kills = 0, worker_kills = 0, mid_campaign = 0;
