@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "cli_helpers.h"
+#include "../sanitized.h"
 
 namespace mm {
 namespace {
@@ -76,11 +77,7 @@ TEST(Integrity, ASecondSupervisorOnTheSameFolderRefusesAndTheFolderStaysExact) {
   TempDir d;
   // Long enough that the first is still running 2 s in: 100 mock trials take about 3.3 s with two
   // workers here; under the sanitizers a trial takes ten times as long.
-#if defined(__SANITIZE_ADDRESS__)
-  const int kTrials = 30;
-#else
-  const int kTrials = 100;
-#endif
+  const int kTrials = testing_sanitized::sanitizedOr(30, 100);
   const std::string common = kMock + " --trials " + std::to_string(kTrials) + " --jobs 2 --out ";
   ASSERT_EQ(runMinimanip(common + (d.path() / "straight").string()).code, 0);
   int round = 0;

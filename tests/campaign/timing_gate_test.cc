@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "cli_helpers.h"
+#include "../sanitized.h"
 
 namespace mm {
 namespace {
@@ -18,9 +19,8 @@ using ::testing::HasSubstr;
 using namespace testing_cli;
 
 TEST(TimingGate, AnUnchangedBuildPassesBesideAnotherCampaignAndAThreeTimesSlowerPlannerFails) {
-#if defined(__SANITIZE_ADDRESS__)
-  GTEST_SKIP() << "wall time under AddressSanitizer measures the sanitizer; the Release pass runs this test";
-#endif
+  if (testing_sanitized::kSanitized)
+    GTEST_SKIP() << "wall time under AddressSanitizer measures the sanitizer; the Release pass runs this test";
   TempDir d;
   const std::string build = fs::path(MINIMANIP_BINARY).parent_path().string();
   // Another campaign on the same two cores for the whole test (two workers).

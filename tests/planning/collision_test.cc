@@ -133,6 +133,7 @@ TEST(Planner, GoalInCollisionFailsAtOnceWithAReason) {
 
 #include "core/rng.h"
 #include "sim/sim_world.h"
+#include "../sanitized.h"
 
 namespace mm {
 namespace {
@@ -143,11 +144,7 @@ namespace {
 // spheres+fcl checker agrees with FCL on every state. Under AddressSanitizer (tools/test
 // --sanitize) it runs ten batches of 1,000 states instead of 10,000: that pass looks for
 // memory errors, this bound is checked by the plain build.
-#if defined(__SANITIZE_ADDRESS__)
-constexpr int kStatesPerBatch = 1000;
-#else
-constexpr int kStatesPerBatch = 10000;
-#endif
+constexpr int kStatesPerBatch = testing_sanitized::sanitizedOr(1000, 10000);
 TEST(SphereChecker, NeverLessConservativeThanFclOn100kStates) {
   const RobotModel& r = panda();
   auto world = SimWorld::load("scenes/bin_table.xml", r);
