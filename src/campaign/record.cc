@@ -78,7 +78,9 @@ void TrialRecord::describe(RecordArchive& a) {
     p.field("at_target", k.at_target, "", "let go of over its target by a place");
     p.field("placed", k.placed, "", "evaluated within the tolerances");
     p.field("position_error", k.position_error, "m", "horizontal");
-    p.field("orientation_error", k.orientation_error, "rad", "about its symmetry");
+    p.field("orientation_error", k.orientation_error, "rad", "about its symmetry (from the target as turned: place_turn)");
+    p.field("place_turn", k.place_turn, "rad",
+            "the target turned about the vertical from the one asked, when at that yaw the hand met a neighbour (place.any_yaw; 0: as asked)");
     std::vector<double> target{k.T_world_target.translation().x(), k.T_world_target.translation().y(),
                                k.T_world_target.translation().z()};
     p.field("target", target, "m", "where it should rest (world x, y, z)");
@@ -303,8 +305,8 @@ void CampaignSummary::describe(RecordArchive& a) {
   a.field("objects_placed", objects_placed, "", "");
   a.field("objects_spawned", objects_spawned, "", "objects in the bins at the trials' starts");
   // The clutter-removal protocol (VGN / GIGA): grasp success rate and declutter rate.
-  auto rate = [](RecordArchive& a, const char* key, Rate& r, const char* help) {
-    a.object(key, [&](RecordArchive& y) {
+  auto rate = [](RecordArchive& ar, const char* key, Rate& r, const char* help) {
+    ar.object(key, [&](RecordArchive& y) {
       y.field("value", r.value, "", "k / n; -1 when n is 0");
       y.field("ci95", r.ci95, "", "Wilson 95% interval (empty when n is 0)");
       y.field("k", r.k, "", "");

@@ -130,6 +130,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   if (P.empty()) return res;
   const Pose T_region_world = o.T_world_region.inverse();
   const Vec3 down = -o.T_world_region.linear().col(2);
+  auto height = [&](const Vec3& p_world) { return (T_region_world * p_world).z(); };  // above the floor
   // The cell's own points (the floor, the walls: outside the footprint less a margin) are
   // obstacles, never seeds. The pads never close on a wall; the floor under an object is not
   // between them (the fingers' volume keeps clear of it).
@@ -138,7 +139,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   for (size_t i = 0; i < P.size(); ++i) {
     const Vec3 q = T_region_world * P[i];
     // The floor: low, and facing up (an object's side near the floor faces sideways).
-    const bool floor = q.z() <= o.floor_margin && (T_region_world.linear() * N[i]).z() > std::cos(o.floor_normal);
+    const bool floor = q.z() <= o.floor_noise || (q.z() <= o.floor_margin && (T_region_world.linear() * N[i]).z() > std::cos(o.floor_normal));
     const bool wall = std::abs(q.x()) > o.region_half.x() - o.wall_margin || std::abs(q.y()) > o.region_half.y() - o.wall_margin;
     cell[i] = wall ? kWall : floor ? kFloor : kNotCell;
     if (!cell[i]) seedable.push_back(static_cast<int>(i));
@@ -178,10 +179,21 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
     grid.near(ps, reach, near);
     for (const Vec3& ax : axes) {
       const Vec3 binormal = ax.cross(normal).normalized();
+      // The approaches: -normal turned about the axis; each hand also rolled about its approach
+      // until the closing axis is level (the hand body's width along the floor, not dipping into it).
+      std::vector<std::pair<Vec3, Vec3>> hands;  // approach z, closing axis y
       for (int a = 0; a < o.approach_steps; ++a) {
         const double theta = -M_PI / 2 + M_PI * a / o.approach_steps;
         const Mat3 turn = Eigen::AngleAxisd(theta, ax).toRotationMatrix();
         const Vec3 z = turn * -normal, y = turn * binormal;
+        hands.push_back({z, y});
+        const Vec3 u = z.cross(down);
+        if (u.norm() > 1e-3) {
+          const Vec3 level = (u.dot(y) < 0 ? -u : u).normalized();
+          if (level.dot(y) < std::cos(o.level_roll)) hands.push_back({z, level});
+        }
+      }
+      for (const auto& [z, y] : hands) {
         ++res.hands;
         if (std::acos(std::clamp(z.dot(down), -1.0, 1.0)) > o.max_tilt) {
           ++res.tilted;
@@ -198,7 +210,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
         GraspCandidate best;
         int best_contacts = 0, best_points = 0;
         double best_clear = 0, best_margin = 0;
-        enum { kNone, kOnCell, kFingers, kHand, kWide, kSparse, kAntipodal } why = kNone;
+        enum { kNone, kOnCell, kFingers, kHand, kWide, kLow, kSparse, kAntipodal } why = kNone;
         for (double d = o.min_bite - o.pad_z_max; d <= -o.pad_z_min + 1e-9; d += o.depth_step) {
           // Between the pads: the run of points along y around the seed, split by a gap a finger fits in.
           std::vector<std::pair<double, bool>> ys;  // y, a cell point
@@ -224,11 +236,27 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
             if (!have) why = kWide;
             break;
           }
+          // The floor is the bin's known plane, not its noisy points: the fingers' and the hand's
+          // corners (padded) this far above it.
+          double lowest = INFINITY;
+          for (int side = -1; side <= 1; side += 2)
+            for (double sx : {-1.0, 1.0})
+              for (double zz : {o.pad_z_min, o.pad_z_max + pad})
+                for (double yy : {open, open + o.finger_thickness + pad})
+                  lowest = std::min(lowest, height(ps + R * Vec3(sx * (o.pad_half_width + pad), c + side * yy, d + zz)));
+          for (double sx : {-1.0, 1.0})
+            for (double sy : {-1.0, 1.0})
+              lowest = std::min(lowest, height(ps + R * Vec3(sx * (o.hand_half_thickness + pad), c + sy * (o.hand_half_width + pad), d - o.hand_back + pad)));
+          if (lowest < o.floor_clearance) {
+            if (!have) why = kLow;
+            break;  // deeper is lower
+          }
           // The fingers and the hand body, swept along the straight approach back from the grasp.
           int blocked = kNone;
           int between = 0;
           double clear = 0.02;
           for (const Local& l : local) {
+            if (cell[l.index] == kFloor) continue;  // checked as the plane
             const double zz = l.p.z() - d, yy = l.p.y() - c, ay = std::abs(yy);
             if (zz <= o.pad_z_max + pad && zz >= -o.hand_back - o.approach_clear && std::abs(l.p.x()) <= o.pad_half_width + pad &&
                 ay >= open && ay <= open + o.finger_thickness + pad) {
@@ -241,7 +269,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
               break;
             }
             if (std::abs(l.p.x()) <= o.pad_half_width && zz >= o.pad_z_min && zz <= o.pad_z_max) {
-              if (ay < open) between += cell[l.index] != kFloor;
+              if (ay < open) ++between;
               else clear = std::min(clear, ay - open - o.finger_thickness);
             }
           }
@@ -311,6 +339,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
           else if (why == kFingers) ++res.fingers_blocked;
           else if (why == kHand) ++res.hand_blocked;
           else if (why == kWide) ++res.too_wide;
+          else if (why == kLow) ++res.too_low;
           else if (why == kSparse) ++res.sparse;
           else ++res.not_antipodal;
           continue;

@@ -7,11 +7,14 @@
 //   -> per seed a frame from the normals around it (the eigenvectors of sum n n^T: the largest is
 //      the surface's normal, the smallest the axis it curves least about)
 //   -> hands: the approach along -normal turned about that axis in steps (a flat face, whose axis is
-//      any, also turned about its normal); those tilted more than max_tilt from straight down dropped
+//      any, also turned about its normal), each also rolled about its approach until the closing
+//      axis is level (the hand's wide body then stays off the floor); those tilted more than
+//      max_tilt from straight down dropped
 //   -> per hand the fingers centred on the points between them, opened by a margin wider than
 //      those points, and the hand pushed as deep as it goes with the fingers' and the palm's
-//      straight approach clear of every observed point (the floor, the walls, the neighbours) and
-//      the fingers out of the space the camera cannot see (behind an observed surface)
+//      straight approach clear of every observed point (the walls, the neighbours), the fingers and
+//      the hand above the floor (the bin's known plane: its points are noise around it), and the
+//      fingers out of the space the camera cannot see (behind an observed surface)
 //   -> kept when enough contacts on each side have normals inside the friction cone about the
 //      closing direction (antipodal), scored by those contacts, the points between the pads, the
 //      tilt and the clearance beside the fingers; near-duplicates suppressed, best first.
@@ -39,6 +42,8 @@ struct CloudGraspOptions {
   double region_height = 0.15;      ///< [m] above the floor
   double floor_margin = 0.01;       ///< [m] points this close to the floor (its noise: 2 mm sigma at 1.2 m) ...
   double floor_normal = 0.5;        ///< [rad] ... and whose normal is within this of the floor's
+  double floor_noise = 0.005;        ///< [m] points this close to the floor are its, whatever their normals (the depth's noise)
+  double floor_clearance = 0.002;    ///< [m] the fingers and the hand (padded) at least this far above the floor's plane
   double wall_margin = 0.004;       ///< [m] points this close to the footprint's edge, or beyond, are the walls'
                                     ///< (floor and walls: obstacles, never seeds, never between the pads)
   double voxel = 0.003;             ///< [m] one point per voxel
@@ -46,6 +51,7 @@ struct CloudGraspOptions {
   double frame_radius = 0.012;      ///< [m] normals of a seed's frame
   int seeds = 400;
   int approach_steps = 8;           ///< turns about the frame's axis from -90 degrees in steps of 180 / approach_steps (8: to +67.5)
+  double level_roll = 0.17;         ///< [rad] a hand whose closing axis dips more than this from level is tried levelled too
   double max_tilt = 0.9;            ///< [rad] the approach from straight down
   double depth_step = 0.004;        ///< [m] the push along the approach
   double min_bite = 0.012;          ///< [m] the fingertips at least this far past the seed (GPD's init_bite: 0.01)
@@ -85,9 +91,10 @@ struct CloudGraspResult {
   std::vector<GraspCandidate> candidates;  ///< best first; type kCloud
   int seeds = 0, hands = 0;                ///< seeds drawn, hands evaluated
   /// Why hands were dropped: tilted beyond max_tilt; the pads closing on the floor or a wall, the
-  /// fingers' or the hand's approach through points (before any depth was right); too wide, too
-  /// few points between the pads, not antipodal (at every depth); the fingers in unseen space.
-  int tilted = 0, on_cell = 0, fingers_blocked = 0, hand_blocked = 0, too_wide = 0, sparse = 0, not_antipodal = 0, unseen = 0;
+  /// fingers' or the hand's approach through points, too wide, the fingers or the hand too near the
+  /// floor (before any depth was right); too few points between the pads, not antipodal (at every
+  /// depth); the fingers in unseen space.
+  int tilted = 0, on_cell = 0, fingers_blocked = 0, hand_blocked = 0, too_wide = 0, too_low = 0, sparse = 0, not_antipodal = 0, unseen = 0;
   struct {
     double cloud = 0, hands = 0;  ///< wall-clock seconds (benchmarks print them; nothing decides by them)
   } seconds;

@@ -46,7 +46,7 @@ Failure cloudGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectStat
   co.region_half = ctx.perception.crop_half;
   co.region_height = ctx.perception.crop_height;
   co.finger_margin = ctx.options.finger_margin;
-  co.padding = ctx.options.padding;
+  co.padding = std::min(ctx.options.padding, ctx.options.cloud_padding);
   co.seeds = ctx.options.cloud_seeds;
   const Vec3 preferred_x = ctx.robot.fk(ctx.robot.home()).linear().col(0);
   const CloudGraspResult r = cloudGrasps(frame, co, preferred_x, ctx.rng_grasp);
@@ -120,18 +120,26 @@ namespace {
 // collision-free approach and lift), with the checkers of selectGrasp; fills `out`'s motions.
 struct GraspCheckers {
   std::unique_ptr<CollisionChecker> full, no_target;
+  double padding = 0;  ///< [m] theirs, and the lift's
 };
 
+// The robot's padding in a grasp's checks: the tight pass's (margin below finger_margin) is that
+// margin; a grasp from the camera's points was cleared against them with cloud_padding; else the
+// planner's.
+double graspPadding(const TaskOptions& o, double margin, bool cloud) {
+  if (cloud) return std::min(o.padding, o.cloud_padding);
+  return margin < o.finger_margin ? std::min(o.padding, margin) : o.padding;
+}
+
 // `margin`: the fingers open this much wider than the object (or than `half_width`, the widest
-// half width of the candidates' when they give it: grasps from the camera's points); the tight
-// pass (margin below finger_margin) also checks with that padding.
+// half width of the candidates' when they give it: grasps from the camera's points).
 GraspCheckers graspCheckers(const TrialContext& ctx, const ObjectState& object, double margin, double half_width = -1) {
   const TaskOptions& o = ctx.options;
   PlanningScene full_scene = planningScene(ctx, -1, false), approach_scene = planningScene(ctx, object.index, false);
   const double widest = half_width >= 0 ? 2 * half_width : 2 * std::max(object.half_size.x(), object.half_size.y());
   full_scene.finger_opening = approach_scene.finger_opening = std::min(ctx.robot.spec().gripper.travel, widest / 2 + margin);
-  const double padding = margin < o.finger_margin ? std::min(o.padding, margin) : o.padding;
-  return {makeChecker(o.checker, ctx.robot, full_scene, padding), makeChecker(o.checker, ctx.robot, approach_scene, padding)};
+  const double padding = graspPadding(o, margin, half_width >= 0);
+  return {makeChecker(o.checker, ctx.robot, full_scene, padding), makeChecker(o.checker, ctx.robot, approach_scene, padding), padding};
 }
 
 // The finger margins to try in turn: the configured one, then the tight one in clutter.
@@ -176,7 +184,7 @@ Failure tryGrasp(TrialContext& ctx, const ObjectState& object, const GraspCandid
       if (s.type == Obstacle::Type::kBox && top <= bottom + kSupportTolerance) ls.attached_ignore.push_back(s.name);
     }
   }
-  auto lifting = makeChecker(o.checker, ctx.robot, ls, o.padding);
+  auto lifting = makeChecker(o.checker, ctx.robot, ls, g.type == GraspType::kCloud ? checkers.padding : o.padding);
   Pose T_lift = T_grasp;
   T_lift.translation().z() += o.lift_height;
   out.lift = planCartesianLine(ctx.robot, *lifting, out.q_grasp, T_lift, near, o.cartesian);
@@ -272,6 +280,7 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
       out.candidates_tried = tried;
       out.approach_distance = approach_distance;
       out.finger_margin = margin;
+      out.padding = graspPadding(o, margin, g.type == GraspType::kCloud);
       ctx.out.grasp_opening = g.width / 2;
       out.pre_opening = std::min(travel, g.width / 2 + margin);
       break;
@@ -302,7 +311,7 @@ Failure planPick(TrialContext& ctx, const GraspSolution& g, Plan& out) {
                                                               : 2 * std::max(g.object.half_size.x(), g.object.half_size.y());
   const double margin = g.finger_margin > 0 ? g.finger_margin : o.finger_margin;
   full_scene.finger_opening = std::min(travel, widest / 2 + margin);
-  auto full = makeChecker(o.checker, ctx.robot, full_scene, margin < o.finger_margin ? std::min(o.padding, margin) : o.padding);
+  auto full = makeChecker(o.checker, ctx.robot, full_scene, g.padding >= 0 ? g.padding : graspPadding(o, margin, false));
   JointTrajectory t_connect;
   const Failure f = connect(ctx, "connect_pregrasp", *full, full_scene, ctx.q_rest, g.q_pre, t_connect);
   ctx.out.collision_checks += full->checks();

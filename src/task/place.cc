@@ -80,7 +80,12 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   }
   const Pose T_tcp_now = ctx.robot.fk(q_lift);
   const double yaw_now = yawOf(T_tcp_now.linear());
-  std::vector<std::pair<double, Pose>> options;
+  struct Option {
+    double cost;
+    Pose T_tcp, T_target;  // the TCP there, and the object's target it realizes
+    double turn;           // [rad] that target turned about the vertical from the one asked
+  };
+  std::vector<Option> options;
   // Held from the side, the hand stays near horizontal: a cylinder turned about its axis by
   // 30 degree steps (both ways up), the least wrist turn first.
   std::vector<Mat3> symmetries;
@@ -89,10 +94,16 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
       for (int k = 0; k < 12; ++k) symmetries.push_back(Mat3(rotX(flip) * rotZ(k * M_PI / 6)));
   } else if (ctx.held_shape == ObjectShape::kMesh) {  // no symmetry declared: as it is held (its target set above)
     symmetries.push_back(Mat3::Identity());
+    // Or, where any yaw will do, turned about the vertical in 30 degree steps, the least turn first
+    // (the object frame's image of the world's vertical: S = R^T rotZ R).
+    if (o.place_any_yaw)
+      for (int k : {1, -1, 2, -2, 3, -3, 4, -4, 5, -5, 6})
+        symmetries.push_back(T_obj_place.linear().transpose() * rotZ(k * M_PI / 6) * T_obj_place.linear());
   } else {
     symmetries = boxSymmetries(half);
   }
-  for (Mat3 S : symmetries) {
+  for (size_t s = 0; s < symmetries.size(); ++s) {
+    Mat3 S = symmetries[s];
     if (ctx.held_shape == ObjectShape::kBox && S(2, 2) > 0.5) {  // a turn about the vertical: the exact rotZ of k quarter turns
       const long k = (std::lround(std::atan2(S(1, 0), S(0, 0)) / (M_PI / 2)) + 4) % 4;
       S = rotZ(2 * M_PI * static_cast<double>(k) / 4);
@@ -101,21 +112,33 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
     T_obj.linear() = T_obj_place.linear() * S;
     const Pose T_tcp = T_obj * ctx.T_tcp_held.inverse();
     const double tilt = std::acos(std::clamp(-T_tcp.linear()(2, 2), -1.0, 1.0));
+    // A box's symmetries realize the target itself; a mesh object's turns (any yaw) are targets of their own, tried in turn.
+    Pose T_realized = T_target;
+    double turn = 0, later = 0;
+    if (ctx.held_shape == ObjectShape::kMesh) {
+      T_realized.linear() = T_obj.linear();
+      const Mat3 D = T_obj.linear() * T_target.linear().transpose();  // a turn about the world's vertical
+      turn = std::atan2(D(1, 0), D(0, 0));
+      later = 10.0 * static_cast<double>(s);
+    }
     if (ctx.held_from_side) {
       if (std::abs(tilt - M_PI / 2) > M_PI / 4) continue;
-      options.push_back({angleBetween(T_tcp.linear(), T_tcp_now.linear()), T_tcp});
+      options.push_back({later + angleBetween(T_tcp.linear(), T_tcp_now.linear()), T_tcp, T_realized, turn});
       continue;
     }
     if (tilt > M_PI / 4) continue;
-    options.push_back({std::abs(wrapAngle(yawOf(T_tcp.linear()) - yaw_now)) + 2 * tilt, T_tcp});
+    options.push_back({later + std::abs(wrapAngle(yawOf(T_tcp.linear()) - yaw_now)) + 2 * tilt, T_tcp, T_realized, turn});
   }
-  std::stable_sort(options.begin(), options.end(), [](auto& a, auto& b) { return a.first < b.first; });
+  std::stable_sort(options.begin(), options.end(), [](const Option& a, const Option& b) { return a.cost < b.cost; });
   Failure last{"place_pose_ik", FailureKind::kIk, "no IK solution for any place pose"};
   bool found = false;
   VecX q_preplace;
   CartesianPath descend, retreat;
   double release_opening = travel;
-  for (const auto& [cost, T_place] : options) {
+  Pose T_chosen = T_target;
+  double turn_chosen = 0;
+  for (const Option& option : options) {
+    const Pose& T_place = option.T_tcp;
     Pose T_pre = T_place;
     T_pre.translation().z() += o.approach_distance;
     const IkResult pre = ikFar(ctx, T_pre, q_lift);
@@ -157,6 +180,8 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
       continue;
     }
     q_preplace = pre.q();
+    T_chosen = option.T_target;
+    turn_chosen = option.turn;
     found = true;
     break;
   }
@@ -196,7 +221,8 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   out.steps.back().guarded = true;  // the held object meeting the surface early is touch-down, not a fault
   out.q_end = q_down;
   out.object = ctx.held;
-  out.T_world_target = T_target;
+  out.T_world_target = T_chosen;
+  ctx.held_record.place_turn = turn_chosen;
   out.places = true;
   if (release) {
     PlanStep open = gripperStep("open_gripper_release", q_down, release_opening);

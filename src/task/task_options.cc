@@ -22,6 +22,10 @@ void TaskOptions::declare(ConfigArchive& a) {
           "perception camera's depth image (GPD's geometry), each tried on the perceived object it closes on (a tree's "
           "WaitForGraspCandidates may choose with its source port)");
   a.value("cloud_seeds", cloud_seeds, {10, 5000}, "", "cloud grasps: points drawn a view to build hands at");
+  a.value("cloud_padding", cloud_padding, {0.0, 0.02}, "m",
+          "cloud grasps: the fingers and the hand inflated by this against the camera's points when a hand is cleared, "
+          "and the same padding (at most planning.padding) in the checks of their approach, lift and the move to the "
+          "pre-grasp; planning.padding's centimetre fills most gaps of a pile");
   a.value("max_candidates", max_grasp_candidates, {1, 64}, "", "grasp candidates tried per object before the pick fails");
   a.value("finger_margin", finger_margin, {0.002, 0.04}, "m",
           "fingers open this much wider than the object's half width before the approach");
@@ -95,6 +99,10 @@ void TaskOptions::declare(ConfigArchive& a) {
           "rows (along y) of the place grid ComputePlacePosition fills, centred on the scene's place_target, nearest slots first");
   a.value("columns", place_columns, {1, 20}, "", "columns (along x) of the place grid (the quickstart tray holds a row of three 5 cm cubes)");
   a.value("pitch", place_pitch, {0.02, 0.5}, "m", "distance between neighbouring slots of the place grid");
+  a.value("any_yaw", place_any_yaw,
+          "an object with no declared symmetry (a mesh) may be set down turned about the vertical, in 30 degree steps "
+          "(the least turn first), when at the target's own yaw the hand meets a neighbour; it is then judged against "
+          "that turn (clutter removal: in the tray is what counts); false: only at the target's yaw");
   a.leave();
 }
 

@@ -40,6 +40,10 @@ struct TaskOptions {
   enum class GraspSource { kModel, kCloud };
   GraspSource grasp_source = GraspSource::kModel;
   int cloud_seeds = 400;                 ///< cloud grasps: seeds drawn a view
+  /// [m] cloud grasps: the fingers and the hand inflated by this against the observed points when
+  /// the detector clears a hand, and in the checks of those candidates' approach, lift and connect
+  /// (the depth's noise; `padding` is free motion's, a centimetre that fills the gaps of a pile)
+  double cloud_padding = 0.004;
   double tight_margin = 0.0;             ///< [m] finger margin and approach padding when nothing fits otherwise (0: never; clutter: 0.004)
   bool weld = false;                     ///< weld-on-grasp (attach plugin) instead of friction
   double drop_distance = 0.03;           ///< [m] object this far from its in-hand pose = dropped
@@ -55,6 +59,7 @@ struct TaskOptions {
   // The place area: slots in a grid centred on the place target (ComputePlacePosition).
   int place_rows = 1, place_columns = 3;
   double place_pitch = 0.06;             ///< [m] between slot centres
+  bool place_any_yaw = false;            ///< an object with no declared symmetry may be set down turned about the vertical
   // Success criteria.
   double tolerance_position = 0.02;      ///< [m] horizontal distance to the place target
   double tolerance_orientation = 0.1745; ///< [rad] (10 degrees)

@@ -112,6 +112,7 @@ struct GraspSolution {
   Pose T_tcp_object = Pose::Identity();
   double pre_opening = 0.04;  ///< [m] per finger before the approach
   double finger_margin = 0;   ///< [m] the margin it was found with (TaskOptions finger_margin or tight_margin)
+  double padding = -1;        ///< [m] the robot's padding its checks used (-1: TaskOptions padding)
 };
 
 class TrialContext {

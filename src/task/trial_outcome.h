@@ -46,6 +46,7 @@ struct PickRecord {
   double position_error = 0;       ///< [m] horizontal
   Vec3 offset = Vec3::Zero();      ///< [m] where it rests minus its target (world frame)
   double orientation_error = 0;    ///< [rad] about the object's symmetry
+  double place_turn = 0;           ///< [rad] its target turned about the vertical from the one asked (place.any_yaw)
   int grasp_candidates_tried = 0;
   double grasp_opening = 0;        ///< [m] per finger after closing
   double neighbours_moved = 0;     ///< [m] the farthest another object moved while this one was picked

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 
@@ -35,12 +36,12 @@ const RobotModel& panda() {
 using testing_render::renderer;
 
 // The detector as a trial configures it for the Panda (its pads, hand body and fingers; the task's
-// finger margin, padding and approach).
+// finger margin, its padding for cloud grasps and approach).
 CloudGraspOptions trialOptions() {
   const TaskOptions task;
   CloudGraspOptions o = cloudGraspOptionsFor(graspOptionsFor(panda().spec().gripper, task));
   o.finger_margin = task.finger_margin;
-  o.padding = task.padding;
+  o.padding = std::min(task.padding, task.cloud_padding);
   return o;
 }
 
@@ -122,7 +123,7 @@ TEST(CloudGrasps, TopCandidatesInPilesHoldOneObjectInForceClosureWithFingersClea
   o.T_world_region = T_bin;
   o.region_half = half;
   const int piles = testing_sanitized::sanitizedOr(2, 8);  // two under the sanitizers (a minute each there)
-  int top1 = 0, top5 = 0, top5_n = 0, with = 0;
+  int top1 = 0, top5 = 0, top5_n = 0, with = 0, objects_total = 0, objects_held = 0;
   for (int trial = 0; trial < piles; ++trial) {
     SCOPED_TRACE("pile " + std::to_string(trial));
     SpawnOptions so;
@@ -144,9 +145,17 @@ TEST(CloudGrasps, TopCandidatesInPilesHoldOneObjectInForceClosureWithFingersClea
     const CloudGraspResult res = cloudGrasps(frame, o, Vec3::UnitX(), grng);
     std::vector<ObjectState> objects;
     for (int i : r.active) objects.push_back(w->object(i));
-    std::printf("pile %d: %zu objects, %zu points, %d seeds, %d hands (tilted %d, on cell %d, fingers %d, hand %d, wide %d, sparse %d, not antipodal %d, unseen %d), %zu candidates, %.2f s + %.2f s\n",
-                trial, objects.size(), res.cloud.points.size(), res.seeds, res.hands, res.tilted, res.on_cell, res.fingers_blocked, res.hand_blocked, res.too_wide, res.sparse,
-                res.not_antipodal, res.unseen, res.candidates.size(), res.seconds.cloud, res.seconds.hands);
+    std::printf("pile %d: %zu objects, %zu points, %d seeds, %d hands (tilted %d, on cell %d, fingers %d, hand %d, wide %d, low %d, sparse %d, not antipodal %d, unseen %d), %zu candidates, %.2f s + %.2f s\n",
+                trial, objects.size(), res.cloud.points.size(), res.seeds, res.hands, res.tilted, res.on_cell, res.fingers_blocked, res.hand_blocked, res.too_wide,
+                res.too_low, res.sparse, res.not_antipodal, res.unseen, res.candidates.size(), res.seconds.cloud, res.seconds.hands);
+    // Recall: the objects some right candidate holds.
+    std::vector<bool> held(objects.size(), false);
+    for (const GraspCandidate& g : res.candidates) {
+      const int k = objectBetweenPads(g, objects, o);
+      if (k >= 0 && !held[k] && judge(g, objects, T_bin.translation().z(), o, 1.0).right) held[k] = true;
+    }
+    objects_total += static_cast<int>(objects.size());
+    objects_held += static_cast<int>(std::count(held.begin(), held.end(), true));
     if (res.candidates.empty()) continue;
     ++with;
     for (size_t k = 0; k < std::min<size_t>(5, res.candidates.size()); ++k) {
@@ -158,13 +167,15 @@ TEST(CloudGrasps, TopCandidatesInPilesHoldOneObjectInForceClosureWithFingersClea
       ++top5_n;
     }
   }
-  std::printf("top-1 right in %d of %d piles with candidates; top-5: %d of %d\n", top1, with, top5, top5_n);
-  // Measured: 6 of the 8 piles have candidates, and every best and top-five candidate of those is
-  // right (the misses are recall: low objects the padded fingertips cannot reach past, touching
-  // objects too wide together for the stroke).
+  std::printf("top-1 right in %d of %d piles with candidates; top-5: %d of %d; objects a right candidate holds: %d of %d\n", top1, with,
+              top5, top5_n, objects_held, objects_total);
+  // Measured: every pile has candidates; the best is right in 8 of 8, the top five in 33 of 34;
+  // a right candidate holds 23 of the 61 objects (recall: of the rest, most touch a neighbour or a
+  // wall where a finger would go, or lie flat wider than the stroke).
   EXPECT_GE(with, testing_sanitized::sanitizedOr(1, 5)) << "most piles have candidates";
   EXPECT_GE(top1, with - 1) << "the best candidate is right";
   EXPECT_GE(top5, top5_n * 9 / 10) << "nine in ten of the top five are right";
+  EXPECT_GE(objects_held * 10, objects_total * 3) << "a right candidate holds three objects in ten or more";
 }
 
 TEST(CloudGrasps, TheSameViewAndSeedGiveTheSameCandidates) {
@@ -232,7 +243,7 @@ TEST(CloudGrasps, ACampaignPicksWithGraspsFromTheCameraPoints) {
   const auto r = testing_cli::runMinimanip("run experiments/clutter_pile.yaml" + sanitized + " --jobs 2 --set progress=none "
                                            "--set tree=experiments/trees/clutter_removal_cloud.xml --out " + out);
   ASSERT_EQ(r.code, 0) << r.out;
-  int chosen = 0, in_tray = 0;
+  int chosen = 0, in_tray = 0, turned = 0;
   std::ifstream in(out + "/trials.jsonl");
   for (std::string line; std::getline(in, line);) {
     const TrialRecord t = fromJsonLine(line, "trials.jsonl");
@@ -242,12 +253,23 @@ TEST(CloudGrasps, ACampaignPicksWithGraspsFromTheCameraPoints) {
         EXPECT_EQ(g.type, "cloud") << "every grasp tried came from the points";
         chosen += g.result == "chosen";
       }
-    for (const PickRecord& p : t.o.picks) EXPECT_EQ(p.grasp_type, "cloud");
+    for (const PickRecord& p : t.o.picks) {
+      EXPECT_EQ(p.grasp_type, "cloud");
+      // Set down at any yaw (the experiments' place.any_yaw) where the target's own yaw meets a
+      // neighbour: turned by whole 30 degree steps, and judged against the turned target.
+      const double steps = p.place_turn / (M_PI / 6);
+      EXPECT_NEAR(steps, std::round(steps), 1e-9);
+      turned += p.at_target && p.place_turn != 0;
+    }
     for (const GraspAttempt& a : t.o.grasp_attempts) in_tray += a.success();
     EXPECT_TRUE(std::any_of(t.o.stages.begin(), t.o.stages.end(), [](const StageRecord& s) { return s.name == "cloud_grasps"; }));
   }
   EXPECT_GE(chosen, 1);
   EXPECT_GE(in_tray, 1) << "an object grasped from the points reached the tray";
+  // Measured: in both rounds one object had no room at its slot's own yaw (turned 60 and 30 degrees).
+  if (!testing_sanitized::kSanitized) {
+    EXPECT_GE(turned, 1) << "an object set down turned";
+  }
   // A source the node does not know is bad input: exit 2 before any trial, naming the tree's line.
   const std::string bad = (dir.path() / "bad.xml").string();
   std::ofstream(bad) << R"(<root BTCPP_format="4"><BehaviorTree ID="T"><Sequence><TriggerPointCloud/>)"
