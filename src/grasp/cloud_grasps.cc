@@ -135,13 +135,14 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   // obstacles, never seeds. The pads never close on a wall; the floor under an object is not
   // between them (the fingers' volume keeps clear of it).
   std::vector<int> seedable;
-  std::vector<char> cell(P.size(), 0);
+  std::vector<char> cell(P.size(), 0), on_plane(P.size(), 0);  // on_plane: the floor's, within its noise
   for (size_t i = 0; i < P.size(); ++i) {
     const Vec3 q = T_region_world * P[i];
     // The floor: low, and facing up (an object's side near the floor faces sideways).
     const bool floor = q.z() <= o.floor_noise || (q.z() <= o.floor_margin && (T_region_world.linear() * N[i]).z() > std::cos(o.floor_normal));
     const bool wall = std::abs(q.x()) > o.region_half.x() - o.wall_margin || std::abs(q.y()) > o.region_half.y() - o.wall_margin;
     cell[i] = wall ? kWall : floor ? kFloor : kNotCell;
+    on_plane[i] = floor && q.z() <= o.floor_noise;
     if (!cell[i]) seedable.push_back(static_cast<int>(i));
   }
   // The neighbourhood a hand can touch: its fingers, its body and the straight approach.
@@ -179,18 +180,21 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
     grid.near(ps, reach, near);
     for (const Vec3& ax : axes) {
       const Vec3 binormal = ax.cross(normal).normalized();
-      // The approaches: -normal turned about the axis; each hand also rolled about its approach
-      // until the closing axis is level (the hand body's width along the floor, not dipping into it).
+      // The approaches: -normal turned about the axis; each hand also rolled about its approach to
+      // close along the level direction across it (the hand body's width along the floor, not
+      // dipping into it), unless its closing axis is that already.
       std::vector<std::pair<Vec3, Vec3>> hands;  // approach z, closing axis y
       for (int a = 0; a < o.approach_steps; ++a) {
         const double theta = -M_PI / 2 + M_PI * a / o.approach_steps;
         const Mat3 turn = Eigen::AngleAxisd(theta, ax).toRotationMatrix();
         const Vec3 z = turn * -normal, y = turn * binormal;
         hands.push_back({z, y});
+        // The level direction across the approach (for an approach near straight down, a turn
+        // about it: one more heading).
         const Vec3 u = z.cross(down);
-        if (u.norm() > 1e-3) {
+        if (std::acos(std::clamp(z.dot(down), -1.0, 1.0)) <= o.max_tilt && u.norm() > 1e-3) {
           const Vec3 level = (u.dot(y) < 0 ? -u : u).normalized();
-          if (level.dot(y) < std::cos(o.level_roll)) hands.push_back({z, level});
+          if (level.dot(y) < std::cos(o.level_turn)) hands.push_back({z, level});
         }
       }
       for (const auto& [z, y] : hands) {
@@ -236,8 +240,9 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
             if (!have) why = kWide;
             break;
           }
-          // The floor is the bin's known plane, not its noisy points: the fingers' and the hand's
-          // corners (padded) this far above it.
+          // The floor is the bin's known plane, not its noisy points (those within its noise are
+          // left out below; the floor's points above them stay obstacles): the fingers' and the
+          // hand's corners (padded) this far above it.
           double lowest = INFINITY;
           for (int side = -1; side <= 1; side += 2)
             for (double sx : {-1.0, 1.0})
@@ -256,7 +261,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
           int between = 0;
           double clear = 0.02;
           for (const Local& l : local) {
-            if (cell[l.index] == kFloor) continue;  // checked as the plane
+            if (on_plane[l.index]) continue;  // checked as the plane
             const double zz = l.p.z() - d, yy = l.p.y() - c, ay = std::abs(yy);
             if (zz <= o.pad_z_max + pad && zz >= -o.hand_back - o.approach_clear && std::abs(l.p.x()) <= o.pad_half_width + pad &&
                 ay >= open && ay <= open + o.finger_thickness + pad) {
@@ -269,7 +274,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
               break;
             }
             if (std::abs(l.p.x()) <= o.pad_half_width && zz >= o.pad_z_min && zz <= o.pad_z_max) {
-              if (ay < open) ++between;
+              if (ay < open) between += cell[l.index] != kFloor;
               else clear = std::min(clear, ay - open - o.finger_thickness);
             }
           }

@@ -7,9 +7,10 @@
 //   -> per seed a frame from the normals around it (the eigenvectors of sum n n^T: the largest is
 //      the surface's normal, the smallest the axis it curves least about)
 //   -> hands: the approach along -normal turned about that axis in steps (a flat face, whose axis is
-//      any, also turned about its normal), each also rolled about its approach until the closing
-//      axis is level (the hand's wide body then stays off the floor); those tilted more than
-//      max_tilt from straight down dropped
+//      any, also turned about its normal), each also rolled about its approach to close along the
+//      level direction across it (the hand's wide body then stays off the floor; for an approach
+//      near straight down, one more heading); those tilted more than max_tilt from straight down
+//      dropped
 //   -> per hand the fingers centred on the points between them, opened by a margin wider than
 //      those points, and the hand pushed as deep as it goes with the fingers' and the palm's
 //      straight approach clear of every observed point (the walls, the neighbours), the fingers and
@@ -42,7 +43,7 @@ struct CloudGraspOptions {
   double region_height = 0.15;      ///< [m] above the floor
   double floor_margin = 0.01;       ///< [m] points this close to the floor (its noise: 2 mm sigma at 1.2 m) ...
   double floor_normal = 0.5;        ///< [rad] ... and whose normal is within this of the floor's
-  double floor_noise = 0.005;        ///< [m] points this close to the floor are its, whatever their normals (the depth's noise)
+  double floor_noise = 0.005;        ///< [m] points this close to the floor are its, whatever their normals (the depth's noise), and left out of the hands' checks for its plane
   double floor_clearance = 0.002;    ///< [m] the fingers and the hand (padded) at least this far above the floor's plane
   double wall_margin = 0.004;       ///< [m] points this close to the footprint's edge, or beyond, are the walls'
                                     ///< (floor and walls: obstacles, never seeds, never between the pads)
@@ -51,7 +52,7 @@ struct CloudGraspOptions {
   double frame_radius = 0.012;      ///< [m] normals of a seed's frame
   int seeds = 400;
   int approach_steps = 8;           ///< turns about the frame's axis from -90 degrees in steps of 180 / approach_steps (8: to +67.5)
-  double level_roll = 0.17;         ///< [rad] a hand whose closing axis dips more than this from level is tried levelled too
+  double level_turn = 0.17;         ///< [rad] a hand whose closing axis is more than this from the level direction across its approach is tried along that too
   double max_tilt = 0.9;            ///< [rad] the approach from straight down
   double depth_step = 0.004;        ///< [m] the push along the approach
   double min_bite = 0.012;          ///< [m] the fingertips at least this far past the seed (GPD's init_bite: 0.01)

@@ -107,7 +107,7 @@ class PlanExecution final : public Motion {
       }
       case PlanStep::Kind::kGripper:
         // The place steps before this one brought the object over its target.
-        if (s.release && plan_.places) ctx_.over_target = plan_.T_world_target;
+        if (s.release && plan_.places) ctx_.over_target = plan_.T_world_target, ctx_.over_target_turn = plan_.place_turn;
         if (s.release && ctx_.held_truth >= 0) {
           // In-hand slip, a metric from the simulator's truth: where the object sits in the hand as the
           // fingers begin to open, against where it sat when they closed.
@@ -370,6 +370,7 @@ class PlanExecution final : public Motion {
     if (ctx_.attempt_open && ctx_.out.grasp_attempts.back().object == ctx_.held_truth) endAttempt(r.at_target ? "in_tray" : "let_go_elsewhere");
     if (r.at_target) {
       r.T_world_target = *ctx_.over_target;
+      r.place_turn = ctx_.over_target_turn;
       r.first_pass = ctx_.out.failures.size() == ctx_.failures_at_last_place;
       ctx_.failures_at_last_place = ctx_.out.failures.size();
       ctx_.milestone("place");
@@ -466,7 +467,7 @@ Failure finishExecution(TrialContext& ctx, Motion& m) {
     return ctx.fail({e.stageName(), FailureKind::kHalted, "halted by the behavior tree"});
   }
   ctx.q_rest = e.plan().q_end;
-  if (e.plan().places && ctx.held >= 0) ctx.over_target = e.plan().T_world_target;  // placed but not let go of
+  if (e.plan().places && ctx.held >= 0) ctx.over_target = e.plan().T_world_target, ctx.over_target_turn = e.plan().place_turn;  // placed but not let go of
   if (e.plan().name == "pick" || e.plan().name == "home") ctx.milestone(e.plan().name);
   return {};
 }

@@ -15,6 +15,11 @@
 
 namespace mm {
 
+namespace {
+// place.any_yaw's turns about the vertical, in 30 degree steps, the least first.
+constexpr int kTurns[] = {1, -1, 2, -2, 3, -3, 4, -4, 5, -5, 6};
+}  // namespace
+
 // ---- place -----------------------------------------------------------------------------------
 
 Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, Plan& out) {
@@ -97,8 +102,7 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
     // Or, where any yaw will do, turned about the vertical in 30 degree steps, the least turn first
     // (the object frame's image of the world's vertical: S = R^T rotZ R).
     if (o.place_any_yaw)
-      for (int k : {1, -1, 2, -2, 3, -3, 4, -4, 5, -5, 6})
-        symmetries.push_back(T_obj_place.linear().transpose() * rotZ(k * M_PI / 6) * T_obj_place.linear());
+      for (int k : kTurns) symmetries.push_back(T_obj_place.linear().transpose() * rotZ(k * M_PI / 6) * T_obj_place.linear());
   } else {
     symmetries = boxSymmetries(half);
   }
@@ -117,8 +121,7 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
     double turn = 0, later = 0;
     if (ctx.held_shape == ObjectShape::kMesh) {
       T_realized.linear() = T_obj.linear();
-      const Mat3 D = T_obj.linear() * T_target.linear().transpose();  // a turn about the world's vertical
-      turn = std::atan2(D(1, 0), D(0, 0));
+      turn = s == 0 ? 0.0 : kTurns[s - 1] * M_PI / 6;
       later = 10.0 * static_cast<double>(s);
     }
     if (ctx.held_from_side) {
@@ -222,7 +225,7 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   out.q_end = q_down;
   out.object = ctx.held;
   out.T_world_target = T_chosen;
-  ctx.held_record.place_turn = turn_chosen;
+  out.place_turn = turn_chosen;
   out.places = true;
   if (release) {
     PlanStep open = gripperStep("open_gripper_release", q_down, release_opening);

@@ -67,6 +67,7 @@ struct Plan {
   int grasp_candidates_tried = 0;
   Pose T_world_target = Pose::Identity();  ///< place: where the object will rest
   bool places = false;                     ///< place: ends with the object over its target
+  double place_turn = 0;                   ///< place: [rad] that target turned about the vertical from the one asked
 };
 
 /// Advances the hardware one control period at a time with the active motion's setpoints, or
@@ -152,6 +153,7 @@ class TrialContext {
   double gripper_opening = 0;        ///< [m] the gripper's last goal
   std::optional<Plan> plan;          ///< the current plan (PlanMTCPick / PlanMTCPlace → ExecuteMTCPlan)
   std::optional<Pose> over_target;   ///< set when a place plan has brought the held object over its target
+  double over_target_turn = 0;       ///< [rad] that plan's place_turn
   std::vector<Pose> failed_grasps;   ///< grasps whose execution failed (not chosen again)
   std::vector<Obstacle> seen_obstacles;  ///< obstacles not part of the cell, as last sensed (planned around)
   /// Camera mode: the last registration against the cell (RegisterCamera), as a correction of the
