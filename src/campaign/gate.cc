@@ -92,13 +92,34 @@ Run readResults(const fs::path& dir, json* summary_out) {
   std::string line;
   for (long n = 1; std::getline(in, line); ++n) {
     if (line.empty()) continue;
-    TrialRecord t = fromJsonLine(line, jsonl.string() + ":" + std::to_string(n));
+    const std::string where = jsonl.string() + ":" + std::to_string(n);
     Sample x;
-    x.success = t.o.success;
-    for (const std::string& c : gateCounterNames()) x.counters[c] = counterOf(t.o, c);
-    for (const std::string& c : gateTimingNames()) x.timings[c] = timingOf(t.o, c);
-    if (!r.trials.emplace(t.trial, x).second)
-      throw InputError(jsonl.string() + ":" + std::to_string(n), "trial " + std::to_string(t.trial) + " appears twice");
+    unsigned long index = 0;
+    const json j = json::parse(line, nullptr, false);
+    if (j.is_object() && j.contains("schema") && j["schema"].is_number_integer() && j["schema"].get<int>() != kTrialSchema) {
+      // A record of another build (tools/timing_gate's base is the previous commit, which may
+      // write another schema): only the gate's own fields, by name (top level, or the cycle's).
+      auto named = [&](const std::string& key) -> const json& {
+        if (j.contains(key)) return j[key];
+        if (j.contains("cycle") && j["cycle"].is_object() && j["cycle"].contains(key)) return j["cycle"][key];
+        throw InputError(where, "a record of schema " + j["schema"].dump() + " without '" + key + "', which the gate compares");
+      };
+      try {
+        index = named("trial").get<unsigned long>();
+        x.success = named("success").get<bool>();
+        for (const std::string& c : gateCounterNames()) x.counters[c] = named(c).get<double>();
+        for (const std::string& c : gateTimingNames()) x.timings[c] = named(c).get<double>();
+      } catch (const json::exception& e) {
+        throw InputError(where, std::string("a record of schema ") + j["schema"].dump() + ": " + e.what());
+      }
+    } else {
+      const TrialRecord t = fromJsonLine(line, where);
+      index = t.trial;
+      x.success = t.o.success;
+      for (const std::string& c : gateCounterNames()) x.counters[c] = counterOf(t.o, c);
+      for (const std::string& c : gateTimingNames()) x.timings[c] = timingOf(t.o, c);
+    }
+    if (!r.trials.emplace(index, x).second) throw InputError(where, "trial " + std::to_string(index) + " appears twice");
   }
   if (r.trials.empty()) throw InputError(jsonl.string(), "holds no trial");
   if (summary_out) *summary_out = s;

@@ -175,5 +175,36 @@ TEST(Gate, AnOptionDeclaredAfterTheBaselineMattersOnlyAwayFromItsDefault) {
   EXPECT_THAT(r.out, ::testing::HasSubstr("grasp.payload_compensation"));
 }
 
+TEST(Gate, ReadsTheFieldsItComparesFromRecordsOfAnotherSchema) {
+  // tools/timing_gate's base is the previous commit's build, which may write another record schema:
+  // its results are read for the gate's own fields, by name; one of those missing is exit 2.
+  using namespace testing_cli;
+  TempDir d;
+  const std::string base = (d.path() / "base").string(), run = (d.path() / "run").string();
+  ASSERT_EQ(runMinimanip(kMock + " --trials 3 --out " + base).code, 0);
+  ASSERT_EQ(runMinimanip(kMock + " --trials 3 --out " + run).code, 0);
+  auto rewrite = [&](const std::string& erase) {
+    std::ifstream in(fs::path(base) / "trials.jsonl");
+    std::string out;
+    for (std::string line; std::getline(in, line);) {
+      json j = json::parse(line);
+      j["schema"] = 3;
+      j.erase("picks");  // a field this build's reader needs
+      if (!erase.empty()) j.erase(erase);
+      out += j.dump() + "\n";
+    }
+    std::ofstream(fs::path(base) / "trials.jsonl") << out;
+  };
+  rewrite("");
+  const std::string thresholds = d.file("t.yaml", "min_trials: 1\nbaseline:\n  counters: [collision_checks, ticks]\n  timings: []\n");
+  RunResult r = runMinimanip("gate " + run + " --baseline " + base + " --thresholds " + thresholds);
+  EXPECT_EQ(r.code, 0) << r.out;
+  rewrite("ticks");
+  r = runMinimanip("gate " + run + " --baseline " + base + " --thresholds " + thresholds);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("trials.jsonl:1"));
+  EXPECT_THAT(r.out, HasSubstr("a record of schema 3 without 'ticks'"));
+}
+
 }  // namespace
 }  // namespace mm
