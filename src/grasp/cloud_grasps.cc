@@ -49,6 +49,13 @@ class Grid {
   std::unordered_map<int64_t, std::vector<int>> cells_;
 };
 
+// The points at [first, last) of a list of a cloud's indices, all within `radius` of `centre`.
+struct Block {
+  Vec3 centre;
+  double radius;
+  size_t first, last;
+};
+
 enum CellPart : char { kNotCell = 0, kFloor = 1, kWall = 2 };
 
 // A point in the hand's frame: x across the pads, y the closing direction, z the approach.
@@ -134,7 +141,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   // The cell's own points (the floor, the walls: outside the footprint less a margin) are
   // obstacles, never seeds. The pads never close on a wall; the floor under an object is not
   // between them (the fingers' volume keeps clear of it).
-  std::vector<int> seedable;
+  std::vector<int> seedable, tested;
   std::vector<char> cell(P.size(), 0), on_plane(P.size(), 0);  // on_plane: the floor's, within its noise
   for (size_t i = 0; i < P.size(); ++i) {
     const Vec3 q = T_region_world * P[i];
@@ -144,6 +151,27 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
     cell[i] = wall ? kWall : floor ? kFloor : kNotCell;
     on_plane[i] = floor && q.z() <= o.floor_noise;
     if (!cell[i]) seedable.push_back(static_cast<int>(i));
+    if (!(on_plane[i] && cell[i] == kFloor)) tested.push_back(static_cast<int>(i));
+  }
+  // The points the hands test, by blocks of a coarse grid (a hand skips the blocks its box
+  // misses): sorted by block, each block's points in the cloud's order.
+  std::vector<Block> all_blocks;
+  {
+    constexpr double kBlock = 0.04;
+    std::vector<std::pair<int64_t, int>> keyed;
+    keyed.reserve(tested.size());
+    for (const int i : tested) keyed.push_back({cellKey((P[i] / kBlock).array().floor().cast<int>()), i});
+    std::sort(keyed.begin(), keyed.end());
+    for (size_t k = 0; k < keyed.size(); ++k) tested[k] = keyed[k].second;
+    for (size_t k = 0; k < keyed.size();) {
+      size_t e = k;
+      Vec3 lo = P[tested[k]], hi = lo;
+      for (; e < keyed.size() && keyed[e].first == keyed[k].first; ++e) lo = lo.cwiseMin(P[tested[e]]), hi = hi.cwiseMax(P[tested[e]]);
+      Block b{(lo + hi) / 2, 0.0, k, e};
+      for (size_t j = k; j < e; ++j) b.radius = std::max(b.radius, (P[tested[j]] - b.centre).norm());
+      all_blocks.push_back(b);
+      k = e;
+    }
   }
   // The neighbourhood a hand can touch: its fingers, its body and the straight approach.
   const double reach = std::max({o.hand_half_width, o.hand_opening / 2 + o.finger_thickness}) + o.padding +
@@ -159,8 +187,24 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
     return !(d > 0) || uvz.z() > d + o.unknown_margin;
   };
 
+  // The box, in a hand's frame about its seed, that holds every point a test of it reads over
+  // all its depths (a conservative bound, 1e-9 wider for the rounding of the tests' sums): across
+  // the pads the hand body's half thickness, padded; along the closing axis the farthest point
+  // between the pads plus the hand's padded half width, or the finger's padded reach and the
+  // clearance's 2 cm; along the approach from the body's back at the end of the approach at the
+  // shallowest depth to the padded fingertips at the deepest.
+  const double d_first = o.min_bite - o.pad_z_max, d_last = -o.pad_z_min + 1e-9;
+  const double half_span = o.hand_opening / 2 + o.finger_thickness;
+  const double box_x = std::max(o.hand_half_thickness, o.pad_half_width) + o.padding + 1e-9;
+  const double box_y = half_span + std::max(o.hand_half_width + o.padding, half_span + std::max(o.padding, 0.02)) + 1e-9;
+  const double box_z_lo = d_first + std::min({o.pad_z_min, -o.hand_back - o.approach_clear, -o.hand_back - o.hand_length - o.approach_clear}) - 1e-9;
+  const double box_z_hi = d_last + std::max(o.pad_z_max, -o.hand_back) + o.padding + 1e-9;
   std::vector<int> near, frame_nb;
-  std::vector<Local> local;
+  std::vector<Block> blocks;
+  std::vector<double> rx, ry, rz, lx, ly, lz;
+  std::vector<unsigned char> inside;
+  std::vector<Local> obstacles, pads;
+  std::vector<std::pair<double, bool>> ys;
   std::vector<GraspCandidate> found;
   const int n_seeds = std::min<int>(o.seeds, static_cast<int>(seedable.size()));
   res.seeds = n_seeds;
@@ -177,7 +221,25 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
     std::vector<Vec3> axes{axis};
     if (es.eigenvalues()(1) < 0.02 * es.eigenvalues()(2))
       for (int k = 1; k < 4; ++k) axes.push_back(Eigen::AngleAxisd(M_PI / 4 * k, normal) * axis);
-    grid.near(ps, reach, near);
+    // The points within reach (the whole pile, mostly) but the floor's within its noise, which no
+    // test reads (the floor is checked as its plane), kept by block with each block's centre
+    // about the seed.
+    near.clear();
+    blocks.clear();
+    for (const Block& b : all_blocks) {
+      const double dc = (b.centre - ps).norm();
+      if (dc > reach + b.radius + 1e-9) continue;
+      const size_t first = near.size();
+      for (size_t k = b.first; k < b.last; ++k)
+        if ((P[tested[k]] - ps).squaredNorm() <= reach * reach) near.push_back(tested[k]);
+      if (near.size() > first) blocks.push_back({b.centre - ps, b.radius, first, near.size()});
+    }
+    // Their offsets from the seed, a coordinate to an array.
+    for (auto* r : {&rx, &ry, &rz}) r->resize(near.size());
+    for (size_t k = 0; k < near.size(); ++k) {
+      const Vec3 r = P[near[k]] - ps;
+      rx[k] = r.x(), ry[k] = r.y(), rz[k] = r.z();
+    }
     for (const Vec3& ax : axes) {
       const Vec3 binormal = ax.cross(normal).normalized();
       // The approaches: -normal turned about the axis; each hand also rolled about its approach to
@@ -206,8 +268,41 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
         Vec3 x = y.cross(z);
         Mat3 R;
         R << x, y, z;
-        local.clear();
-        for (int j : near) local.push_back({R.transpose() * (P[j] - ps), j});
+        // The points in the hand's frame inside the box its fingers, body and approach can reach
+        // at any depth; a block whose ball misses the box is skipped whole.
+        for (auto* l : {&lx, &ly, &lz}) l->resize(near.size());
+        inside.assign(near.size(), 0);
+        for (const Block& b : blocks) {
+          const double bx = x.dot(b.centre), by = y.dot(b.centre), bz = z.dot(b.centre), r = b.radius + 1e-9;
+          if (std::abs(bx) > box_x + r || std::abs(by) > box_y + r || bz < box_z_lo - r || bz > box_z_hi + r) continue;
+          for (size_t k = b.first; k < b.last; ++k) {
+            lx[k] = x.x() * rx[k] + x.y() * ry[k] + x.z() * rz[k];
+            ly[k] = y.x() * rx[k] + y.y() * ry[k] + y.z() * rz[k];
+            lz[k] = z.x() * rx[k] + z.y() * ry[k] + z.z() * rz[k];
+            inside[k] = (std::abs(lx[k]) <= box_x) & (std::abs(ly[k]) <= box_y) & (lz[k] >= box_z_lo) & (lz[k] <= box_z_hi);
+          }
+        }
+        // Those that may lie between the pads (ys, the contacts), by depth along the approach; the
+        // obstacles (but the floor within its noise, checked as the plane) once a depth needs them.
+        pads.clear();
+        for (size_t k = 0; k < near.size(); ++k)
+          if (inside[k] && cell[near[k]] != kFloor && std::abs(lx[k]) <= o.pad_half_width && std::abs(ly[k]) <= half_span)
+            pads.push_back({Vec3(lx[k], ly[k], lz[k]), near[k]});
+        std::stable_sort(pads.begin(), pads.end(), [](const Local& a, const Local& b) { return a.p.z() < b.p.z(); });
+        obstacles.clear();
+        bool have_obstacles = false;
+        auto obstaclesOf = [&]() -> const std::vector<Local>& {
+          if (!have_obstacles)
+            for (size_t k = 0; k < near.size(); ++k)
+              if (inside[k] && !on_plane[near[k]]) obstacles.push_back({Vec3(lx[k], ly[k], lz[k]), near[k]});
+          have_obstacles = true;
+          return obstacles;
+        };
+        auto padsAt = [&](double d) {  // the pads' span along the approach at depth d (a superset: the tests stay exact)
+          const auto first = std::lower_bound(pads.begin(), pads.end(), d + o.pad_z_min - 1e-9, [](const Local& l, double v) { return l.p.z() < v; });
+          const auto last = std::upper_bound(first, pads.end(), d + o.pad_z_max + 1e-9, [](double v, const Local& l) { return v < l.p.z(); });
+          return std::make_pair(first, last);
+        };
         // Push the hand forward: the TCP at depth d along z from the seed. The deepest hand whose
         // straight approach is clear, with enough points between the pads, is kept.
         bool have = false;
@@ -215,13 +310,14 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
         int best_contacts = 0, best_points = 0;
         double best_clear = 0, best_margin = 0;
         enum { kNone, kOnCell, kFingers, kHand, kWide, kLow, kSparse, kAntipodal } why = kNone;
-        for (double d = o.min_bite - o.pad_z_max; d <= -o.pad_z_min + 1e-9; d += o.depth_step) {
+        for (double d = d_first; d <= d_last; d += o.depth_step) {
           // Between the pads: the run of points along y around the seed, split by a gap a finger fits in.
-          std::vector<std::pair<double, bool>> ys;  // y, a cell point
-          for (const Local& l : local) {
+          const auto [pads_first, pads_last] = padsAt(d);
+          ys.clear();  // y, a cell point
+          for (auto it = pads_first; it != pads_last; ++it) {
+            const Local& l = *it;
             const double zz = l.p.z() - d;
-            if (cell[l.index] != kFloor && std::abs(l.p.x()) <= o.pad_half_width && zz >= o.pad_z_min && zz <= o.pad_z_max &&
-                std::abs(l.p.y()) <= o.hand_opening / 2 + o.finger_thickness)
+            if (zz >= o.pad_z_min && zz <= o.pad_z_max && std::abs(l.p.y()) <= o.hand_opening / 2 + o.finger_thickness)
               ys.emplace_back(l.p.y(), cell[l.index] == kWall);
           }
           std::sort(ys.begin(), ys.end());
@@ -260,8 +356,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
           int blocked = kNone;
           int between = 0;
           double clear = 0.02;
-          for (const Local& l : local) {
-            if (on_plane[l.index]) continue;  // checked as the plane
+          for (const Local& l : obstaclesOf()) {
             const double zz = l.p.z() - d, yy = l.p.y() - c, ay = std::abs(yy);
             if (zz <= o.pad_z_max + pad && zz >= -o.hand_back - o.approach_clear && std::abs(l.p.x()) <= o.pad_half_width + pad &&
                 ay >= open && ay <= open + o.finger_thickness + pad) {
@@ -294,11 +389,10 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
           constexpr int kNx = 3, kNz = 6;
           double ext[2][kNx][kNz];
           bool filled[2][kNx][kNz] = {};
-          for (const Local& l : local) {
+          for (auto it = pads_first; it != pads_last; ++it) {
+            const Local& l = *it;
             const double zz = l.p.z() - d;
-            if (cell[l.index] == kFloor || std::abs(l.p.x()) > o.pad_half_width || zz < o.pad_z_min || zz > o.pad_z_max || l.p.y() < lo ||
-                l.p.y() > hi)
-              continue;
+            if (zz < o.pad_z_min || zz > o.pad_z_max || l.p.y() < lo || l.p.y() > hi) continue;
             const int ix = std::clamp(static_cast<int>((l.p.x() + o.pad_half_width) / (2 * o.pad_half_width) * kNx), 0, kNx - 1);
             const int iz = std::clamp(static_cast<int>((zz - o.pad_z_min) / (o.pad_z_max - o.pad_z_min) * kNz), 0, kNz - 1);
             for (int side = 0; side < 2; ++side) {

@@ -94,7 +94,8 @@ struct CloudGraspResult {
   /// Why hands were dropped: tilted beyond max_tilt; the pads closing on the floor or a wall, the
   /// fingers' or the hand's approach through points, too wide, the fingers or the hand too near the
   /// floor (before any depth was right); too few points between the pads, not antipodal (at every
-  /// depth); the fingers in unseen space.
+  /// depth); the fingers in unseen space. (A point in the way of both the fingers and the hand
+  /// counts as whichever the scan meets first.)
   int tilted = 0, on_cell = 0, fingers_blocked = 0, hand_blocked = 0, too_wide = 0, too_low = 0, sparse = 0, not_antipodal = 0, unseen = 0;
   struct {
     double cloud = 0, hands = 0;  ///< wall-clock seconds (benchmarks print them; nothing decides by them)

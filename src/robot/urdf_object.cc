@@ -120,13 +120,13 @@ UrdfObject loadUrdfObject(const std::string& path) {
     }
   }
   if (l.inertial) {
-    const auto& in = *l.inertial;
+    const auto& inert = *l.inertial;
     o.has_inertial = true;
-    o.mass = in.mass;
-    const Pose T = toPose(in.origin);
+    o.mass = inert.mass;
+    const Pose T = toPose(inert.origin);
     o.com = T.translation();
     Mat3 I;
-    I << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
+    I << inert.ixx, inert.ixy, inert.ixz, inert.ixy, inert.iyy, inert.iyz, inert.ixz, inert.iyz, inert.izz;
     o.inertia = T.linear() * I * T.linear().transpose();
     if (!(o.mass > 0) || !std::isfinite(o.mass)) throw InputError(where, "<inertial> mass must be > 0, got " + std::to_string(o.mass));
     // A body's principal moments are positive and each at most the sum of the other two.

@@ -41,13 +41,7 @@ Failure cloudGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectStat
   Frame frame;
   std::string why;
   if (!captureView(ctx, frame, &why)) return done({"cloud_grasps", FailureKind::kPerception, why});
-  CloudGraspOptions co = cloudGraspOptionsFor(graspOptionsFor(ctx.robot.spec().gripper, ctx.options));
-  co.T_world_region = ctx.perception.T_world_crop;
-  co.region_half = ctx.perception.crop_half;
-  co.region_height = ctx.perception.crop_height;
-  co.finger_margin = ctx.options.finger_margin;
-  co.padding = std::min(ctx.options.padding, ctx.options.cloud_padding);
-  co.seeds = ctx.options.cloud_seeds;
+  const CloudGraspOptions co = cloudGraspOptionsFor(ctx.robot.spec().gripper, ctx.options, ctx.perception);
   const Vec3 preferred_x = ctx.robot.fk(ctx.robot.home()).linear().col(0);
   const CloudGraspResult r = cloudGrasps(frame, co, preferred_x, ctx.rng_grasp);
   // Each candidate under the perceived object it closes on.
@@ -72,6 +66,17 @@ Failure cloudGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectStat
     return done({"cloud_grasps", FailureKind::kNoGrasp, buf});
   }
   return done({});
+}
+
+CloudGraspOptions cloudGraspOptionsFor(const GripperSpec& gripper, const TaskOptions& task, const PerceptionOptions& perception) {
+  CloudGraspOptions co = cloudGraspOptionsFor(graspOptionsFor(gripper, task));
+  co.T_world_region = perception.T_world_crop;
+  co.region_half = perception.crop_half;
+  co.region_height = perception.crop_height;
+  co.finger_margin = task.finger_margin;
+  co.padding = std::min(task.padding, task.cloud_padding);
+  co.seeds = task.cloud_seeds;
+  return co;
 }
 
 GraspOptions graspOptionsFor(const GripperSpec& gripper, const TaskOptions& task) {

@@ -12,6 +12,8 @@
 
 namespace mm {
 
+struct CloudGraspOptions;  // grasp/cloud_grasps.h
+
 // ---- perception ---------------------------------------------------------------------------
 
 /// Perceives the objects in the bin into ctx.objects (without those already picked).
@@ -51,6 +53,9 @@ Failure cloudGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectStat
 /// The grasp options of `task` with the gripper's stroke, pad friction and geometry (the pads'
 /// extent and the hand body's, in the TCP frame) filled in.
 GraspOptions graspOptionsFor(const GripperSpec& gripper, const TaskOptions& task);
+/// The model-free detector's options as a trial runs it: the gripper's geometry, the task's finger
+/// margin, padding for cloud grasps and seeds, and the perception's region (the crop).
+CloudGraspOptions cloudGraspOptionsFor(const GripperSpec& gripper, const TaskOptions& task, const PerceptionOptions& perception);
 /// Whether one of the object's candidates passes selectGrasp's checks (IK, collision, approach,
 /// lift) now; records nothing and draws from a copy of the IK stream.
 bool graspable(TrialContext& ctx, const ObjectState& object);
