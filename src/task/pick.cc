@@ -267,20 +267,32 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
       if (failed_before) continue;
       ++tried;
       ++ctx.out.grasp_candidates_tried;
+      GraspCandidate chosen = g;
       if (g.type == GraspType::kCloud) {
         // A grasp from the points says how wide it closes: the fingers are checked where they open
         // for it, not at the object's box.
         GraspCheckers own = graspCheckers(ctx, object, margin, g.width / 2);
         last = tryGrasp(ctx, object, g, own, approach_distance, ctx.rng_ik, out, ctx.out.collision_checks);
+        if (!last.ok()) {
+          // The same grasp with the hand turned half a turn about its approach (the detector gives
+          // the turn nearer the home's; the other may be the one the arm reaches, or clears itself in).
+          GraspCandidate turned = g;
+          turned.T_world_tcp.linear().col(0) *= -1;
+          turned.T_world_tcp.linear().col(1) *= -1;
+          turned.yaw = yawOf(turned.T_world_tcp.linear());
+          GraspSolution other;
+          const Failure again = tryGrasp(ctx, object, turned, own, approach_distance, ctx.rng_ik, other, ctx.out.collision_checks);
+          if (again.ok()) last = again, out = other, chosen = turned;
+        }
         ctx.out.collision_checks += own.full->checks() + own.no_target->checks();
       } else {
         last = tryGrasp(ctx, object, g, checkers, approach_distance, ctx.rng_ik, out, ctx.out.collision_checks);
       }
-      note(g, last.ok() ? "chosen" : last.stage + ": " + last.reason);
+      note(chosen, last.ok() ? "chosen" : last.stage + ": " + last.reason);
       if (!last.ok()) continue;
       found = true;
       out.object = object;
-      out.candidate = g;
+      out.candidate = chosen;
       out.candidate_index = static_cast<int>(c);
       out.candidates_tried = tried;
       out.approach_distance = approach_distance;
