@@ -39,7 +39,7 @@ void TrialRecord::describe(RecordArchive& a) {
   a.field("object_grades", object_grades, "",
           "generated objects (objects.generated): each object's shape grade, by its index k (object_<k>); empty for the catalogue's kinds");
   a.field("target_object", o.target_object, "", "the first object picked (its index k: object_<k> of the trial's model)");
-  a.field("grasp_candidates_tried", o.grasp_candidates_tried, "", "grasp candidates filtered, all picks");
+  a.field("grasp_candidates_tried", o.grasp_candidates_tried, "", "grasp candidates filtered, all picks (a cloud candidate's turned second try is the same candidate)");
   a.field("pushes", o.pushes, "", "pushes planned to move an object no grasp fits (PushObject)");
   a.field("grasp_opening", o.grasp_opening, "m", "per finger after the last close");
   a.object("cycle", [&](RecordArchive& c) {
@@ -140,6 +140,7 @@ void TrialRecord::describe(RecordArchive& a) {
       t.field("torque_arm", c.torque_arm, "m", "centre of mass to the grasp axis");
       t.field("clearance", c.clearance, "m", "open fingertips to the nearest neighbour (capped at 5 cm)");
       t.field("result", c.result, "", "chosen, or why filterGrasps dropped it (force closure, IK, collision, approach, lift)");
+      t.field("turned", c.turned, "", "the hand turned half a turn about its approach: a cloud candidate that failed is tried so once more, as the next entry");
     }, "the candidates filtered, in order, up to the chosen one");
   }, "every grasp selection (filterGrasps), in order");
   size_t n_det = o.detections.size();

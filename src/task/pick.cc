@@ -198,6 +198,19 @@ Failure tryGrasp(TrialContext& ctx, const ObjectState& object, const GraspCandid
   return {};
 }
 
+// Whether `g` closed on nothing before in this trial (the grasp executed; a cloud grasp either way
+// round about its approach, the same grasp).
+bool failedBefore(const TrialContext& ctx, const GraspCandidate& g) {
+  Mat3 turned = g.T_world_tcp.linear();
+  turned.col(0) *= -1;
+  turned.col(1) *= -1;
+  return std::any_of(ctx.failed_grasps.begin(), ctx.failed_grasps.end(), [&](const Pose& T) {
+    if ((T.translation() - g.T_world_tcp.translation()).norm() >= 1e-3) return false;
+    return angleBetween(T.linear(), g.T_world_tcp.linear()) < 1e-2 ||
+           (g.type == GraspType::kCloud && angleBetween(T.linear(), turned) < 1e-2);
+  });
+}
+
 }  // namespace
 
 bool graspable(TrialContext& ctx, const ObjectState& object) {
@@ -260,14 +273,11 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
         note(g, g.rejected);
         break;
       }
-      const bool failed_before = std::any_of(ctx.failed_grasps.begin(), ctx.failed_grasps.end(), [&](const Pose& T) {
-        return (T.translation() - g.T_world_tcp.translation()).norm() < 1e-3 &&
-               angleBetween(T.linear(), g.T_world_tcp.linear()) < 1e-2;
-      });
-      if (failed_before) continue;
+      if (failedBefore(ctx, g)) continue;
       ++tried;
       ++ctx.out.grasp_candidates_tried;
       GraspCandidate chosen = g;
+      bool turned = false;
       if (g.type == GraspType::kCloud) {
         // A grasp from the points says how wide it closes: the fingers are checked where they open
         // for it, not at the object's box.
@@ -275,20 +285,23 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
         last = tryGrasp(ctx, object, g, own, approach_distance, ctx.rng_ik, out, ctx.out.collision_checks);
         if (!last.ok()) {
           // The same grasp with the hand turned half a turn about its approach (the detector gives
-          // the turn nearer the home's; the other may be the one the arm reaches, or clears itself in).
-          GraspCandidate turned = g;
-          turned.T_world_tcp.linear().col(0) *= -1;
-          turned.T_world_tcp.linear().col(1) *= -1;
-          turned.yaw = yawOf(turned.T_world_tcp.linear());
+          // the turn nearer the home's; the other may be the one the arm reaches, or clears itself
+          // in), recorded as the next entry.
+          note(g, last.stage + ": " + last.reason);
+          turned = true;
+          chosen.T_world_tcp.linear().col(0) *= -1;
+          chosen.T_world_tcp.linear().col(1) *= -1;
+          chosen.yaw = yawOf(chosen.T_world_tcp.linear());
           GraspSolution other;
-          const Failure again = tryGrasp(ctx, object, turned, own, approach_distance, ctx.rng_ik, other, ctx.out.collision_checks);
-          if (again.ok()) last = again, out = other, chosen = turned;
+          last = tryGrasp(ctx, object, chosen, own, approach_distance, ctx.rng_ik, other, ctx.out.collision_checks);
+          if (last.ok()) out = other;
         }
         ctx.out.collision_checks += own.full->checks() + own.no_target->checks();
       } else {
         last = tryGrasp(ctx, object, g, checkers, approach_distance, ctx.rng_ik, out, ctx.out.collision_checks);
       }
       note(chosen, last.ok() ? "chosen" : last.stage + ": " + last.reason);
+      sel.tried.back().turned = turned;
       if (!last.ok()) continue;
       found = true;
       out.object = object;

@@ -69,6 +69,7 @@ struct GraspTry {
   double torque_arm = 0;       ///< [m] centre of mass to the grasp axis
   double clearance = 0;        ///< [m] open fingertips to the nearest neighbour
   std::string result;          ///< "chosen", or why it was dropped
+  bool turned = false;         ///< a cloud candidate's second try, the hand turned half a turn about its approach
 };
 
 /// One selection of a grasp for an object (a SelectGrasp / the chain's grasp stage).
