@@ -34,8 +34,11 @@ hits=$(grep -lE '#include [<"]task/plan_steps.h' */*.h */*.cc | grep -v '^task/'
 if [ -n "$hits" ]; then echo "task/plan_steps.h is internal to task/, included by:"; echo "$hits"; fail=1; fi
 # sim/sim_world_impl.h is SimWorld's insides, shared by its own source files only: the one header
 # that may include MuJoCo, as long as nothing outside sim/ includes it.
-hits=$(grep -nE '#include <(mujoco/|ompl/|fcl/|opencv)' */*.h | grep -v '^sim/sim_world_impl.h:')
+hits=$(grep -nE '#include <(mujoco/|ompl/|fcl/|opencv|pcl/)' */*.h | grep -v '^sim/sim_world_impl.h:')
 if [ -n "$hits" ]; then echo "heavy headers in our headers:"; echo "$hits"; fail=1; fi
+# PCL's headers cost seconds of compile each: one file includes them.
+hits=$(grep -lE '#include <pcl/' */*.h */*.cc | grep -v '^perception/segmentation.cc$')
+if [ -n "$hits" ]; then echo "PCL included outside perception/segmentation.cc:"; echo "$hits"; fail=1; fi
 hits=$(grep -lE '#include [<"]sim/sim_world_impl.h' */*.h */*.cc | grep -v '^sim/')
 if [ -n "$hits" ]; then echo "sim/sim_world_impl.h is internal to sim/, included by:"; echo "$hits"; fail=1; fi
 [ $fail -eq 0 ] && echo "layering ok"

@@ -14,6 +14,7 @@
 #include "perception/camera_perception.h"
 #include "render/renderer.h"
 #include "../render/test_renderer.h"
+#include "object_pixels.h"
 #include "sim/object_catalogue.h"
 #include "sim/scene_sampler.h"
 #include "sim/sim_world.h"
@@ -52,20 +53,9 @@ PileScore scorePile(SimWorld& w, uint64_t seed, uint64_t trial, bool verbose) {
   w.updateKinematics();
   const CameraModel cam = renderer().camera(w, "overhead_camera", 1280, 960, "(test)");
   Frame frame = renderer().render(w, cam, kDepth | kSegmentation);
-  // Each object's pixels alone: the others moved far below the floor for one render.
   std::vector<Pose> poses;
   for (int i : r.active) poses.push_back(w.object(i).T_world_object);
-  std::vector<int> all_px(r.active.size(), 0), visible_px(r.active.size(), 0);
-  for (size_t k = 0; k < r.active.size(); ++k) {
-    for (size_t j = 0; j < r.active.size(); ++j)
-      w.setObjectPose(r.active[j], j == k ? poses[j] : makePose(Vec3(5.0 + static_cast<double>(j), 5, -5), Mat3::Identity()));
-    w.updateKinematics();
-    const Frame alone = renderer().render(w, cam, kSegmentation);
-    for (uint8_t l : alone.segmentation) all_px[k] += l == 2 + r.active[k];
-    for (uint8_t l : frame.segmentation) visible_px[k] += l == 2 + r.active[k];
-  }
-  for (size_t j = 0; j < r.active.size(); ++j) w.setObjectPose(r.active[j], poses[j]);
-  w.updateKinematics();
+  const testing_render::ObjectPixels px = testing_render::objectPixels(w, cam, r.active, frame);
   Rng noise = Rng::stream(seed, trial, Purpose::kCamera);
   applyDepthNoise(frame, DepthNoise{}, noise);
   const Vec3 cube_half = w.object(r.active[0]).half_size;
@@ -80,7 +70,7 @@ PileScore scorePile(SimWorld& w, uint64_t seed, uint64_t trial, bool verbose) {
   s.detections = static_cast<int>(det.detections.size());
   std::vector<char> used(det.detections.size(), 0);
   for (size_t k = 0; k < r.active.size(); ++k) {
-    const double fraction = all_px[k] > 0 ? static_cast<double>(visible_px[k]) / all_px[k] : 0;
+    const double fraction = px.fraction(k);
     const bool vis = fraction >= 0.5;
     s.visible += vis;
     bool found = false;

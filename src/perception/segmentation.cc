@@ -1,0 +1,152 @@
+// The only file that includes PCL (its headers cost seconds of compile: 7.4 s for this file on a
+// 2-core VM), which tests/layering_test.sh checks.
+#include "perception/segmentation.h"
+
+#include <algorithm>
+#include <chrono>
+#include <map>
+#include <set>
+
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <pcl/segmentation/lccp_segmentation.h>
+#include <pcl/segmentation/supervoxel_clustering.h>
+
+namespace mm {
+
+Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Segmentation out;
+  const CameraModel& cam = frame.camera;
+  const Pose T_region_world = o.T_world_region.inverse();
+  const Pose T_region_camera = T_region_world * cam.T_world_camera;
+  // The points in the camera's frame (the supervoxels' single-camera transform expects them so),
+  // each with its pixel.
+  auto cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  std::vector<int> pixel_of;
+  for (int v = 0; v < cam.height; ++v)
+    for (int u = 0; u < cam.width; ++u) {
+      const int i = v * cam.width + u;
+      const float z = frame.depth[static_cast<size_t>(i)];
+      if (!(z > 0)) continue;
+      const Vec3 p_cam((u - cam.cx) * z / cam.fx, (v - cam.cy) * z / cam.fy, z);
+      const Vec3 q = T_region_camera * p_cam;
+      if (std::abs(q.x()) > o.region_half.x() - o.wall_margin || std::abs(q.y()) > o.region_half.y() - o.wall_margin) continue;
+      if (q.z() < o.floor_margin || q.z() > o.region_height) continue;
+      cloud->push_back(pcl::PointXYZ(static_cast<float>(p_cam.x()), static_cast<float>(p_cam.y()), static_cast<float>(p_cam.z())));
+      pixel_of.push_back(i);
+    }
+  out.points = static_cast<int>(pixel_of.size());
+  if (cloud->empty()) {
+    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return out;
+  }
+
+  pcl::SupervoxelClustering<pcl::PointXYZ> super(static_cast<float>(o.voxel), static_cast<float>(o.seed));
+  super.setUseSingleCameraTransform(true);
+  super.setInputCloud(cloud);
+  super.setColorImportance(0.0f);
+  super.setSpatialImportance(1.0f);
+  super.setNormalImportance(static_cast<float>(o.normal_importance));
+  std::map<std::uint32_t, pcl::Supervoxel<pcl::PointXYZ>::Ptr> clusters;
+  super.extract(clusters);
+  std::multimap<std::uint32_t, std::uint32_t> adjacency;
+  super.getSupervoxelAdjacency(adjacency);
+  out.supervoxels = static_cast<int>(clusters.size());
+
+  // Each point's supervoxel (0: in none), then each supervoxel's segment.
+  pcl::PointCloud<pcl::PointXYZL>::Ptr labelled = super.getLabeledCloud();
+  std::map<std::uint32_t, std::uint32_t> segment_of;  // supervoxel -> LCCP's segment label
+  if (!clusters.empty()) {
+    pcl::LCCPSegmentation<pcl::PointXYZ> lccp;
+    lccp.setConcavityToleranceThreshold(static_cast<float>(o.concavity_tolerance));
+    lccp.setSanityCheck(true);
+    lccp.setSmoothnessCheck(o.smoothness > 0, static_cast<float>(o.voxel), static_cast<float>(o.seed),
+                            static_cast<float>(o.smoothness));
+    lccp.setKFactor(static_cast<std::uint32_t>(o.k_factor));
+    // LCCP's own merging of small segments is off: it visits the supervoxels in the order of
+    // their addresses (its graph keeps vertices in a boost::setS), so which neighbour took a small
+    // segment changed from run to run. The grouping itself (connected components over the convex
+    // edges, each judged by its two supervoxels alone) does not depend on the order; the merging
+    // is done below, in an order of our own.
+    lccp.setMinSegmentSize(0);
+    lccp.setInputSupervoxels(clusters, adjacency);
+    lccp.segment();
+    lccp.getSupervoxelToSegmentMap(segment_of);
+  }
+
+  // Segments numbered by their first pixel (PCL's labels depend on its visiting order).
+  std::map<std::uint32_t, int> id_of;  // LCCP's label -> ours
+  std::vector<int> sv_count;
+  std::vector<int> seg_of_point(labelled->size(), -1);
+  for (size_t k = 0; k < labelled->size(); ++k) {
+    const std::uint32_t sv = (*labelled)[k].label;
+    const auto it = sv == 0 ? segment_of.end() : segment_of.find(sv);
+    if (it == segment_of.end()) continue;  // in no supervoxel
+    seg_of_point[k] = id_of.try_emplace(it->second, static_cast<int>(id_of.size())).first->second;
+  }
+  for (const auto& [sv, seg] : segment_of) id_of.try_emplace(seg, static_cast<int>(id_of.size()));  // segments without a pixel
+  const int n = static_cast<int>(id_of.size());
+  // Neighbouring segments (through their supervoxels), and each segment's size in supervoxels.
+  sv_count.assign(static_cast<size_t>(n), 0);
+  std::vector<std::set<int>> near(static_cast<size_t>(n));
+  for (const auto& [sv, seg] : segment_of) ++sv_count[static_cast<size_t>(id_of.at(seg))];
+  for (const auto& [a, b] : adjacency) {
+    const auto ia = segment_of.find(a), ib = segment_of.find(b);
+    if (ia == segment_of.end() || ib == segment_of.end()) continue;
+    const int sa = id_of.at(ia->second), sb = id_of.at(ib->second);
+    if (sa != sb) near[static_cast<size_t>(sa)].insert(sb), near[static_cast<size_t>(sb)].insert(sa);
+  }
+  // LCCP's rule for small segments, in a fixed order: the smallest segment (then the first) of at
+  // most min_supervoxels joins its largest neighbour (then the first), until none is left.
+  std::vector<int> into(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) into[static_cast<size_t>(i)] = i;
+  for (;;) {
+    int small = -1;
+    for (int i = 0; i < n; ++i) {
+      const size_t u = static_cast<size_t>(i);
+      if (into[u] != i || near[u].empty() || sv_count[u] > o.min_supervoxels) continue;
+      if (small < 0 || sv_count[u] < sv_count[static_cast<size_t>(small)]) small = i;
+    }
+    if (small < 0) break;
+    const size_t us = static_cast<size_t>(small);
+    int big = -1;
+    for (int j : near[us])
+      if (big < 0 || sv_count[static_cast<size_t>(j)] > sv_count[static_cast<size_t>(big)]) big = j;
+    const size_t ub = static_cast<size_t>(big);
+    into[us] = big;
+    sv_count[ub] += sv_count[us];
+    for (int j : near[us]) {
+      near[static_cast<size_t>(j)].erase(small);
+      if (j != big) near[static_cast<size_t>(j)].insert(big), near[ub].insert(j);
+    }
+    near[us].clear();
+  }
+  auto root = [&](int i) {
+    while (into[static_cast<size_t>(i)] != i) i = into[static_cast<size_t>(i)];
+    return i;
+  };
+
+  // The segments' pixels and points, in the order of their first pixel.
+  std::vector<Segment> segments(static_cast<size_t>(n));
+  for (size_t k = 0; k < labelled->size(); ++k) {
+    if (seg_of_point[k] < 0) continue;
+    Segment& s = segments[static_cast<size_t>(root(seg_of_point[k]))];
+    s.pixels.push_back(pixel_of[k]);
+    const pcl::PointXYZ& p = (*cloud)[k];
+    const Vec3 p_world = cam.T_world_camera * Vec3(p.x, p.y, p.z);
+    s.points.push_back(p_world);
+    s.top = std::max(s.top, (T_region_world * p_world).z());
+  }
+  for (Segment& s : segments) {
+    if (s.pixels.empty() || static_cast<int>(s.pixels.size()) < o.min_pixels) continue;  // merged away, or noise
+    for (const Vec3& p : s.points) s.centroid += p;
+    s.centroid /= static_cast<double>(s.points.size());
+    out.segments.push_back(std::move(s));
+  }
+  std::sort(out.segments.begin(), out.segments.end(), [](const Segment& a, const Segment& b) { return a.pixels[0] < b.pixels[0]; });
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+}  // namespace mm

@@ -1,0 +1,56 @@
+// Instance segmentation of one depth view of a bin of unknown objects, with no object model:
+// the points above the bin's floor and inside its walls, cut into object segments where the
+// surface turns concave (LCCP: Stein, Schoeler, Papon, Woergoetter, "Object Partitioning using
+// Local Convexity", CVPR 2014), on PCL 1.13's supervoxels and LCCP (docs/design/point-cloud-library.md).
+//   depth -> the pixels' points in the world -> those inside the bin (its footprint less the walls'
+//   margin, above the floor's noise, below the tallest object) -> supervoxels (voxels grown from
+//   seeds on a grid, by distance and normals) -> neighbouring supervoxels joined where the surface
+//   between them is convex or smooth -> segments, each the pixels of its points.
+// Reads only the frame's depth and its camera (the extrinsics as calibrated) and the bin's known
+// geometry. Every PCL call runs on this thread; the same image gives the same segments.
+#pragma once
+#include <vector>
+
+#include "core/camera.h"
+#include "core/geometry.h"
+
+namespace mm {
+
+struct SegmentationOptions {
+  // Where to look: the bin's floor frame (z up), its footprint's half sizes, and how high above
+  // its floor (the tallest object).
+  Pose T_world_region = Pose::Identity();
+  Vec3 region_half = Vec3::Zero();  ///< x, y [m]
+  double region_height = 0.15;      ///< [m] above the floor
+  double floor_margin = 0.006;      ///< [m] points this close to the floor's plane are the floor's (its noise)
+  double wall_margin = 0.004;       ///< [m] points this close to the footprint's edge, or beyond, are the walls'
+  // Supervoxels and LCCP (PCL's names).
+  double voxel = 0.004;                ///< [m] the voxel
+  double seed = 0.025;                 ///< [m] the supervoxels' seed spacing
+  double normal_importance = 4.0;      ///< against spatial importance 1 (colour: none)
+  double concavity_tolerance = 25.0;   ///< [deg] a connection this far concave is still convex (the noise's normals)
+  double smoothness = 0.0;             ///< LCCP's smoothness threshold (0: no smoothness check)
+  int k_factor = 0;                    ///< extended convexity: common neighbours convex to both (0: none)
+  int min_supervoxels = 3;             ///< a segment of at most this many supervoxels joins its largest neighbour (LCCP's rule)
+  int min_pixels = 30;                 ///< segments of fewer pixels are dropped (noise)
+};
+
+/// One segment: its pixels (v * width + u, ascending) and its points in the world.
+struct Segment {
+  std::vector<int> pixels;
+  std::vector<Vec3> points;
+  Vec3 centroid = Vec3::Zero();  ///< [m] world
+  double top = 0;                ///< [m] its highest point above the floor
+};
+
+struct Segmentation {
+  std::vector<Segment> segments;  ///< by their first pixel
+  int points = 0;                 ///< the pixels inside the bin, above its floor
+  int supervoxels = 0;
+  double seconds = 0;             ///< wall clock (benchmarks print it; nothing decides by it)
+};
+
+/// The segments of `frame`'s depth inside the region.
+Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o);
+
+}  // namespace mm

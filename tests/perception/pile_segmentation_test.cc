@@ -1,0 +1,151 @@
+// Segmentation of piles of unknown objects, scored against the renderer's labels after BOP: an
+// object counts when its visible fraction (its pixels in the view over its pixels alone in the
+// same view) is at least 0.5; it is found when a segment's mask has IoU >= 0.5 with its visible
+// mask (one segment to one object); a segment that matches no object so is false. Piles of generated objects of every grade, dropped and settled as the
+// clutter_pile experiment drops them, seen once from the overhead camera with the stereo noise.
+// MM_PILES=N prints the table over N piles (docs/measurements/perception.md); the test asserts on a few.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+
+#include "core/rng.h"
+#include "perception/camera_perception.h"
+#include "perception/segmentation.h"
+#include "render/renderer.h"
+#include "../render/test_renderer.h"
+#include "object_pixels.h"
+#include "../sanitized.h"
+#include "sim/object_generator.h"
+#include "sim/scene_sampler.h"
+#include "sim/sim_world.h"
+
+namespace mm {
+namespace {
+
+const RobotModel& panda() {
+  static const RobotModel robot = RobotModel::load("robots/panda/panda.yaml");
+  return robot;
+}
+
+using testing_render::renderer;
+
+struct GradeScore {
+  int objects = 0, visible = 0, found = 0;
+};
+
+struct Score {
+  std::map<std::string, GradeScore> grades;
+  int segments = 0, false_segments = 0;
+  double seconds = 0;
+  int views = 0;
+};
+
+void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height, Score& score, bool verbose) {
+  const auto [T_bin, half] = w.site("bin_region");
+  SpawnOptions so;
+  so.generated.grades = shapeGrades();
+  so.count_min = 5, so.count_max = 10;
+  so.drop = true;
+  so.wall_margin = 0.07;
+  so.settle_time = 2.0;
+  Rng rng = Rng::stream(seed, trial, Purpose::kScene);
+  const SpawnResult r = spawnObjects(w, panda(), T_bin, half, rng, so);
+  ASSERT_TRUE(r.ok) << r.reason;
+  w.updateKinematics();
+  const CameraModel cam = renderer().camera(w, "overhead_camera", width, height, "(test)");
+  Frame frame = renderer().render(w, cam, kDepth | kSegmentation);
+  const size_t n = r.active.size();
+  const testing_render::ObjectPixels px = testing_render::objectPixels(w, cam, r.active, frame);
+  Rng noise = Rng::stream(seed, trial, Purpose::kCamera);
+  if (!std::getenv("MM_NOISE_FREE")) applyDepthNoise(frame, DepthNoise{}, noise);
+
+  SegmentationOptions o;
+  o.T_world_region = T_bin;
+  o.region_half = half;
+  const Segmentation seg = segmentDepth(frame, o);
+  // The same image, the same segments (PCL on this thread).
+  const Segmentation again = segmentDepth(frame, o);
+  ASSERT_EQ(again.segments.size(), seg.segments.size());
+  for (size_t s = 0; s < seg.segments.size(); ++s) EXPECT_EQ(again.segments[s].pixels, seg.segments[s].pixels);
+  score.seconds += seg.seconds;
+  ++score.views;
+  score.segments += static_cast<int>(seg.segments.size());
+
+  // IoU of every segment with every object's visible mask; matched greedily, best pair first.
+  std::vector<std::vector<double>> iou(seg.segments.size(), std::vector<double>(n, 0));
+  for (size_t s = 0; s < seg.segments.size(); ++s) {
+    std::vector<int> inter(n, 0);
+    for (int pixel : seg.segments[s].pixels) {
+      const int l = frame.segmentation[static_cast<size_t>(pixel)];
+      for (size_t k = 0; k < n; ++k) inter[k] += l == kSegmentObject0 + r.active[k];
+    }
+    for (size_t k = 0; k < n; ++k) {
+      const int uni = static_cast<int>(seg.segments[s].pixels.size()) + px.visible[k] - inter[k];
+      iou[s][k] = uni > 0 ? static_cast<double>(inter[k]) / uni : 0;
+    }
+  }
+  std::vector<char> seg_used(seg.segments.size(), 0), obj_used(n, 0);
+  for (;;) {
+    double best = 0.5;
+    int bs = -1, bk = -1;
+    for (size_t s = 0; s < seg.segments.size(); ++s)
+      for (size_t k = 0; k < n; ++k)
+        if (!seg_used[s] && !obj_used[k] && iou[s][k] >= best) best = iou[s][k], bs = static_cast<int>(s), bk = static_cast<int>(k);
+    if (bs < 0) break;
+    seg_used[static_cast<size_t>(bs)] = obj_used[static_cast<size_t>(bk)] = 1;
+  }
+  for (size_t k = 0; k < n; ++k) {
+    const std::string grade = r.grades.empty() ? "?" : r.grades[static_cast<size_t>(r.active[k])];
+    GradeScore& g = score.grades[grade];
+    const double fraction = px.fraction(k);
+    ++g.objects;
+    if (fraction < 0.5) continue;
+    ++g.visible;
+    g.found += obj_used[k];
+    if (verbose && !obj_used[k]) {
+      double best = 0;
+      size_t at = 0;
+      for (size_t s = 0; s < seg.segments.size(); ++s)
+        if (iou[s][k] > best) best = iou[s][k], at = s;
+      std::printf("  pile %llu: %s object %zu (visible %.2f, %d px) not found: best IoU %.2f, with a segment of %zu px\n",
+                  static_cast<unsigned long long>(trial), grade.c_str(), k, fraction, px.visible[k], best,
+                  seg.segments.empty() ? 0 : seg.segments[at].pixels.size());
+    }
+  }
+  for (size_t s = 0; s < seg.segments.size(); ++s) score.false_segments += !seg_used[s];
+}
+
+Score scorePiles(int piles, int width, int height, bool verbose) {
+  auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
+  Score score;
+  for (int t = 0; t < piles; ++t) scorePile(*w, 1, static_cast<uint64_t>(t), width, height, score, verbose);
+  std::printf("%d piles at %dx%d, seed 1: %d segments, %d false; %.1f ms a view\n", piles, width, height, score.segments,
+              score.false_segments, 1e3 * score.seconds / std::max(1, score.views));
+  for (const auto& [grade, g] : score.grades)
+    std::printf("  %-7s objects %3d, visible >= 0.5: %3d, found %3d (%.1f%%)\n", grade.c_str(), g.objects, g.visible, g.found,
+                100.0 * g.found / std::max(1, g.visible));
+  return score;
+}
+
+// The figure (MM_PILES=N prints it over N piles); the test asserts it on a few.
+TEST(PileSegmentation, FindsTheVisibleUnknownObjectsOfDroppedPiles) {
+  const char* env = std::getenv("MM_PILES");
+  const int piles = env ? std::atoi(env) : testing_sanitized::sanitizedOr(1, 4);
+  const char* wide = std::getenv("MM_WIDTH");  // 640 (x 480) unless given, e.g. 1280 (x 960)
+  const int width = wide ? std::atoi(wide) : 640;
+  const Score s = scorePiles(piles, width, width * 3 / 4, env != nullptr);
+  int visible = 0, found = 0;
+  for (const auto& [grade, g] : s.grades) visible += g.visible, found += g.found;
+  ASSERT_GT(visible, 0);
+  // Seed 1's first four piles today: 30 of the 34 visible found, 8 false segments of 38 (40 piles:
+  // docs/measurements/perception.md). The target (95% of the simpler grades found, 85% of the
+  // hollow ones, at most 2% of segments false) is not reached yet.
+  EXPECT_GE(found, 0.75 * visible);
+  EXPECT_LE(s.false_segments, std::max(1, s.segments * 3 / 10));
+}
+
+}  // namespace
+}  // namespace mm
