@@ -460,12 +460,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
           continue;
         }
         // The TCP's x nearer the preferred direction (the same grasp turned half a turn about z).
-        if (Rg.col(0).dot(preferred_x) < 0) {
-          Mat3 F = Rg;
-          F.col(0) = -Rg.col(0);
-          F.col(1) = -Rg.col(1);
-          best.T_world_tcp.linear() = F;
-        }
+        if (Rg.col(0).dot(preferred_x) < 0) best.T_world_tcp.linear() = halfTurnAboutApproach(Rg);
         best.type = GraspType::kCloud;
         best.approach = -Rg.col(2);
         best.yaw = yawOf(best.T_world_tcp.linear());

@@ -57,6 +57,14 @@ inline const char* graspTypeName(GraspType t) {
   return t == GraspType::kSide ? "side" : t == GraspType::kCloud ? "cloud" : "top_down";
 }
 
+/// A TCP's orientation turned half a turn about its z (the approach): x and y reversed. For a
+/// parallel gripper it is the same grasp with the wrist the other way round.
+inline Mat3 halfTurnAboutApproach(Mat3 R_world_tcp) {
+  R_world_tcp.col(0) *= -1;
+  R_world_tcp.col(1) *= -1;
+  return R_world_tcp;
+}
+
 struct GraspCandidate {
   Pose T_world_tcp = Pose::Identity();
   GraspType type = GraspType::kTopDown;

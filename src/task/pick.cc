@@ -201,9 +201,7 @@ Failure tryGrasp(TrialContext& ctx, const ObjectState& object, const GraspCandid
 // Whether `g` closed on nothing before in this trial (the grasp executed; a cloud grasp either way
 // round about its approach, the same grasp).
 bool failedBefore(const TrialContext& ctx, const GraspCandidate& g) {
-  Mat3 turned = g.T_world_tcp.linear();
-  turned.col(0) *= -1;
-  turned.col(1) *= -1;
+  const Mat3 turned = halfTurnAboutApproach(g.T_world_tcp.linear());
   return std::any_of(ctx.failed_grasps.begin(), ctx.failed_grasps.end(), [&](const Pose& T) {
     if ((T.translation() - g.T_world_tcp.translation()).norm() >= 1e-3) return false;
     return angleBetween(T.linear(), g.T_world_tcp.linear()) < 1e-2 ||
@@ -289,8 +287,7 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
           // in), recorded as the next entry.
           note(g, last.stage + ": " + last.reason);
           turned = true;
-          chosen.T_world_tcp.linear().col(0) *= -1;
-          chosen.T_world_tcp.linear().col(1) *= -1;
+          chosen.T_world_tcp.linear() = halfTurnAboutApproach(chosen.T_world_tcp.linear());
           chosen.yaw = yawOf(chosen.T_world_tcp.linear());
           GraspSolution other;
           last = tryGrasp(ctx, object, chosen, own, approach_distance, ctx.rng_ik, other, ctx.out.collision_checks);

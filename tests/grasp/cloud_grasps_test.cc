@@ -36,13 +36,14 @@ const RobotModel& panda() {
 using testing_render::renderer;
 
 // The detector as a trial configures it for the Panda (its pads, hand body and fingers; the task's
-// finger margin, its padding for cloud grasps and approach).
-CloudGraspOptions trialOptions() {
+// finger margin, its padding for cloud grasps, approach and seeds), looking into the bin up to 15 cm.
+CloudGraspOptions trialOptions(const Pose& T_bin, const Vec3& half) {
   const TaskOptions task;
-  CloudGraspOptions o = cloudGraspOptionsFor(graspOptionsFor(panda().spec().gripper, task));
-  o.finger_margin = task.finger_margin;
-  o.padding = std::min(task.padding, task.cloud_padding);
-  return o;
+  PerceptionOptions perception;
+  perception.T_world_crop = T_bin;
+  perception.crop_half = half;
+  perception.crop_height = 0.15;
+  return cloudGraspOptionsFor(panda().spec().gripper, task, perception);
 }
 
 bool insidePiece(const ObjectState& o, const Vec3& p_world) {
@@ -119,9 +120,7 @@ Verdict judge(const GraspCandidate& g, const std::vector<ObjectState>& objects, 
 TEST(CloudGrasps, TopCandidatesInPilesHoldOneObjectInForceClosureWithFingersClear) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   const auto [T_bin, half] = w->site("bin_region");
-  CloudGraspOptions o = trialOptions();
-  o.T_world_region = T_bin;
-  o.region_half = half;
+  CloudGraspOptions o = trialOptions(T_bin, half);
   const int piles = testing_sanitized::sanitizedOr(2, 8);  // two under the sanitizers (a minute each there)
   int top1 = 0, top5 = 0, top5_n = 0, with = 0, objects_total = 0, objects_held = 0;
   for (int trial = 0; trial < piles; ++trial) {
@@ -192,9 +191,7 @@ TEST(CloudGrasps, TheSameViewAndSeedGiveTheSameCandidates) {
   ASSERT_TRUE(spawnObjects(*w, panda(), T_bin, half, rng, so).ok);
   w->updateKinematics();
   const Frame frame = renderer().render(*w, renderer().camera(*w, "overhead_camera", 640, 480, "(test)"), kDepth);
-  CloudGraspOptions o = trialOptions();
-  o.T_world_region = T_bin;
-  o.region_half = half;
+  CloudGraspOptions o = trialOptions(T_bin, half);
   o.seeds = testing_sanitized::sanitizedOr(100, o.seeds);  // a quarter under the sanitizers
   Rng a = Rng::stream(3, 0, Purpose::kGrasp), b = Rng::stream(3, 0, Purpose::kGrasp), c = Rng::stream(3, 1, Purpose::kGrasp);
   const CloudGraspResult ra = cloudGrasps(frame, o, Vec3::UnitX(), a), rb = cloudGrasps(frame, o, Vec3::UnitX(), b),

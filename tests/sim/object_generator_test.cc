@@ -85,10 +85,16 @@ TEST(ObjectGenerator, EveryObjectIsASolidTheGripperCanHold) {
       EXPECT_GT(k.mass, 0.003);
       EXPECT_EQ(k.rgba, (std::array<double, 4>{0.55, 0.55, 0.58, 1}));
       const size_t pieces = k.solid->pieces->size();
-      if (k.grade == "convex") EXPECT_EQ(pieces, 1u);
-      if (k.grade == "blend") EXPECT_TRUE(pieces == 2 || pieces == 3);
-      if (k.grade == "bent") EXPECT_TRUE(pieces >= 2 && pieces <= 3);
-      if (k.grade == "hollow") EXPECT_GE(pieces, 3u);
+      if (k.grade == "convex") {
+        EXPECT_EQ(pieces, 1u);
+      } else if (k.grade == "blend") {
+        EXPECT_TRUE(pieces == 2 || pieces == 3);
+      } else if (k.grade == "bent") {
+        EXPECT_TRUE(pieces >= 2 && pieces <= 3);
+      } else {
+        EXPECT_EQ(k.grade, "hollow");
+        EXPECT_GE(pieces, 3u);
+      }
       double least = INFINITY;
       for (const ConvexPiece& p : *k.solid->pieces) least = std::min(least, leastWidth(p));
       EXPECT_LE(least, o.max_width + 1e-9) << "a piece the fingers can close across";
