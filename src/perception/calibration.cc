@@ -1,5 +1,6 @@
 #include "perception/calibration.h"
 
+#include <opencv2/core/utility.hpp>
 #include <opencv2/aruco/charuco.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
@@ -14,6 +15,11 @@
 
 namespace mm {
 namespace {
+
+// OpenCV runs its parallel loops on TBB worker threads unless told otherwise. Library calls run in
+// the calling thread here (docs/design/determinism.md); a worker thread alive at exit also crashed
+// LeakSanitizer's end-of-process check now and then.
+[[maybe_unused]] const int kOpenCvInCallingThread = (cv::setNumThreads(0), 0);
 
 cv::Ptr<cv::aruco::CharucoBoard> makeBoard(const CharucoBoardSpec& b) {
   const cv::Ptr<cv::aruco::Dictionary> dict = cv::aruco::getPredefinedDictionary(cv::aruco::DICT_5X5_100);

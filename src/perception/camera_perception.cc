@@ -1,5 +1,6 @@
 #include "perception/camera_perception.h"
 
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <Eigen/Dense>
@@ -13,6 +14,11 @@
 
 namespace mm {
 namespace {
+
+// OpenCV runs its parallel loops on TBB worker threads unless told otherwise. Library calls run in
+// the calling thread here (docs/design/determinism.md); a worker thread alive at exit also crashed
+// LeakSanitizer's end-of-process check now and then.
+[[maybe_unused]] const int kOpenCvInCallingThread = (cv::setNumThreads(0), 0);
 
 // The 24 rotations that map the axes onto themselves (signed permutations with determinant +1).
 const std::vector<Mat3>& axisRotations() {

@@ -1,5 +1,6 @@
 #include "render/image_io.h"
 
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sys/statvfs.h>
@@ -20,6 +21,11 @@
 
 namespace mm {
 namespace {
+
+// OpenCV runs its parallel loops on TBB worker threads unless told otherwise. Library calls run in
+// the calling thread here (docs/design/determinism.md); a worker thread alive at exit also crashed
+// LeakSanitizer's end-of-process check now and then.
+[[maybe_unused]] const int kOpenCvInCallingThread = (cv::setNumThreads(0), 0);
 
 // Encoded in memory, then written whole by temp file + rename: a full disk is reported with its
 // cause (OutputError) and leaves no half image.
