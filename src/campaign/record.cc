@@ -147,11 +147,11 @@ void TrialRecord::describe(RecordArchive& a) {
   a.list("detections", n_det, [&](size_t i, RecordArchive& d) {
     if (d.reading() && o.detections.size() <= i) o.detections.resize(i + 1);
     DetectionRecord& k = o.detections[i];
-    d.field("object", k.object, "", "the true object it was matched to (nearest centre within 3 cm; -1: a false detection)");
+    d.field("object", k.object, "", "the true object it was matched to (nearest centre within 3 cm; a segment of objects with no model: within its footprint's half diagonal; -1: a false detection)");
     d.field("time", k.time, "s", "simulated, since the trial began");
     d.field("centre_error", k.centre_error, "m", "distance of the estimated centre from the true one (-1: false detection)");
-    d.field("rotation_error", k.rotation_error, "rad", "the smallest angle between the estimated and the true orientation over the box's symmetries");
-    d.field("mssd", k.mssd, "m", "BOP's maximum symmetry-aware surface distance (the farthest corner, best symmetry)");
+    d.field("rotation_error", k.rotation_error, "rad", "the smallest angle between the estimated and the true orientation over the box's symmetries (-1: a false detection, or a segment of objects with no model)");
+    d.field("mssd", k.mssd, "m", "BOP's maximum symmetry-aware surface distance (the farthest corner, best symmetry; -1 as rotation_error)");
   }, "camera perception: every object each perception found, against the simulator's truth (empty in the other modes)");
   a.field("missed_detections", o.missed_detections, "", "camera perception: objects in the bin a perception did not find, summed over perceptions");
   size_t n_reg = o.camera_registrations.size();

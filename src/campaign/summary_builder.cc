@@ -38,8 +38,8 @@ void SummaryBuilder::add(const TrialRecord& r) {
       continue;
     }
     det_centre_mm_.add(1000.0 * d.centre_error);
-    det_rotation_deg_.add(180.0 / M_PI * d.rotation_error);
-    det_mssd_mm_.add(1000.0 * d.mssd);
+    if (d.rotation_error >= 0) det_rotation_deg_.add(180.0 / M_PI * d.rotation_error);  // -1: no model, no orientation
+    if (d.mssd >= 0) det_mssd_mm_.add(1000.0 * d.mssd);
   }
   s.missed_detections += o.missed_detections;
   // A crashed trial's bin is unknown; a trial whose spawn failed never had a bin to clear.

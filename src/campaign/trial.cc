@@ -163,14 +163,11 @@ Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& worl
     if (camera != e.perception.camera)
       throw InputError(e.perception.extrinsics, "calibrates camera '" + camera + "', expected perception.camera '" + e.perception.camera + "'");
   }
-  if (c.spawn.generated.enabled() && e.perception.mode == PerceptionMode::kCamera)
-    throw InputError(e.file, "objects.generated: generated objects are meshes, and camera perception finds the catalogue's boxes and "
-                             "cylinders only (expected perception.mode ground_truth for generated objects)");
+  // Generated objects and meshes have no model the camera's perception fits: it segments them.
+  c.perception.unknown_objects = c.spawn.generated.enabled();
   for (const std::string& k : c.spawn.kinds) {
     const ObjectKind* kind = c.spawn.loaded.find(k);
-    if (kind->shape == ObjectShape::kMesh && e.perception.mode == PerceptionMode::kCamera)
-      throw InputError(e.file, "objects.kinds: '" + k + "' is a mesh kind, and camera perception finds the catalogue's boxes and cylinders only "
-                               "(expected perception.mode ground_truth for mesh objects)");
+    if (kind->shape == ObjectShape::kMesh) c.perception.unknown_objects = true;
     c.perception.shapes.push_back({kind->name, kind->half_size, kind->mass, kind->shape});
   }
   c.perception.crop_half = bin_half;

@@ -41,6 +41,9 @@ struct PerceptionOptions {
   bool calibrated = false;  ///< T_world_camera holds the file's extrinsics
   Pose T_world_camera = Pose::Identity();
   std::vector<KnownShape> shapes;  ///< the kinds that can be in the bin (the experiment's catalogue kinds)
+  /// The bin holds objects the robot has no model of (generated, or meshes): the depth is cut into
+  /// segments (perception/segmentation.h), each known as an upright box around its points.
+  bool unknown_objects = false;
 };
 
 /// True when `o` lies inside the sensor's crop box (see PerceptionOptions).

@@ -3,10 +3,12 @@
 #include "perception/segmentation.h"
 
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 #include <map>
 #include <set>
 
+#include <Eigen/Eigenvalues>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/segmentation/lccp_segmentation.h>
@@ -147,6 +149,85 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
   std::sort(out.segments.begin(), out.segments.end(), [](const Segment& a, const Segment& b) { return a.pixels[0] < b.pixels[0]; });
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
+}
+
+ObjectState segmentObject(const Segment& s, const Pose& T_world_region, double cell, double step) {
+  ObjectState object;
+  object.shape = ObjectShape::kMesh;
+  if (s.points.empty()) return object;
+  const Pose T_region_world = T_world_region.inverse();
+  std::vector<Vec3> q;  // the points in the region's frame
+  q.reserve(s.points.size());
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const Vec3& p : s.points) q.push_back(T_region_world * p), mean += q.back().head<2>();
+  mean /= static_cast<double>(q.size());
+  Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+  for (const Vec3& p : q) cov += (p.head<2>() - mean) * (p.head<2>() - mean).transpose();
+  Eigen::Vector2d major = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(cov).eigenvectors().col(1);  // the larger eigenvalue's
+  if (major.x() < 0 || (major.x() == 0 && major.y() < 0)) major = -major;  // one of the two, always the same
+  const Eigen::Vector2d minor(-major.y(), major.x());
+  // The points in the principal axes (a along the major, b across it), and their extent.
+  std::vector<Eigen::Vector3d> abz;
+  abz.reserve(q.size());
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(INFINITY), hi = -lo;
+  double top = 1e-3;
+  for (const Vec3& p : q) {
+    const Eigen::Vector2d d = p.head<2>() - mean;
+    abz.emplace_back(major.dot(d), minor.dot(d), p.z());
+    lo = lo.cwiseMin(abz.back().head<2>()), hi = hi.cwiseMax(abz.back().head<2>());
+    top = std::max(top, p.z());
+  }
+  // Each cell's highest point (cells across are 5/6 as wide, so no column is square: a square
+  // column's box would have no preferred axes).
+  const double ca = cell, cb = cell * 5 / 6;
+  const int na = std::max(1, static_cast<int>(std::ceil((hi.x() - lo.x()) / ca))), nb = std::max(1, static_cast<int>(std::ceil((hi.y() - lo.y()) / cb)));
+  std::vector<double> height(static_cast<size_t>(na * nb), -1);
+  for (const Eigen::Vector3d& p : abz) {
+    const int i = std::clamp(static_cast<int>((p.x() - lo.x()) / ca), 0, na - 1), j = std::clamp(static_cast<int>((p.y() - lo.y()) / cb), 0, nb - 1);
+    double& h = height[static_cast<size_t>(j * na + i)];
+    h = std::max(h, p.z());
+  }
+  // The object's frame: the middle of the bounding box, on the principal axes, z up.
+  const Eigen::Vector2d mid_ab = (lo + hi) / 2;
+  const Eigen::Vector2d mid = mean + major * mid_ab.x() + minor * mid_ab.y();
+  Mat3 R = Mat3::Identity();
+  R.col(0) << major.x(), major.y(), 0;
+  R.col(1) << minor.x(), minor.y(), 0;
+  object.T_world_object = T_world_region * makePose(Vec3(mid.x(), mid.y(), top / 2), R);
+  object.half_size = Vec3(std::max((hi.x() - lo.x()) / 2, 1e-3), std::max((hi.y() - lo.y()) / 2, 1e-3), top / 2);
+  auto pieces = std::make_shared<std::vector<ConvexPiece>>();
+  auto column = [&](int i0, int i1, int j, double h) {
+    const double a0 = lo.x() + i0 * ca - mid_ab.x(), a1 = std::min(hi.x(), lo.x() + (i1 + 1) * ca) - mid_ab.x();
+    const double b0 = lo.y() + j * cb - mid_ab.y(), b1 = std::min(hi.y(), lo.y() + (j + 1) * cb) - mid_ab.y();
+    const Vec3 c0(a0, b0, -top / 2), c1(std::max(a1, a0 + 1e-3), std::max(b1, b0 + 1e-3), h - top / 2);
+    ConvexPiece piece;
+    for (int k = 0; k < 8; ++k) piece.vertices.emplace_back(k & 1 ? c1.x() : c0.x(), k & 2 ? c1.y() : c0.y(), k & 4 ? c1.z() : c0.z());
+    for (int axis = 0; axis < 3; ++axis) {
+      const Vec3 n = Vec3::Unit(axis);
+      piece.planes.push_back({n, c1[axis]});
+      piece.planes.push_back({-n, -c0[axis]});
+    }
+    pieces->push_back(std::move(piece));
+  };
+  for (int j = 0; j < nb; ++j)
+    for (int i = 0; i < na;) {
+      const double h0 = height[static_cast<size_t>(j * na + i)];
+      if (h0 < 0) {
+        ++i;
+        continue;
+      }
+      double lo_h = h0, hi_h = h0;
+      int end = i;
+      while (end + 1 < na) {
+        const double h = height[static_cast<size_t>(j * na + end + 1)];
+        if (h < 0 || std::max(hi_h, h) - std::min(lo_h, h) > step) break;
+        lo_h = std::min(lo_h, h), hi_h = std::max(hi_h, h), ++end;
+      }
+      column(i, end, j, hi_h);
+      i = end + 1;
+    }
+  object.pieces = std::move(pieces);
+  return object;
 }
 
 }  // namespace mm

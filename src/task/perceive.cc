@@ -10,6 +10,7 @@
 #include "planning/blend.h"
 #include "planning/chomp.h"
 #include "perception/cell_registration.h"
+#include "perception/segmentation.h"
 #include "planning/time_parameterization.h"
 #include "sim/hardware.h"
 #include "task/plan_steps.h"
@@ -85,13 +86,24 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
       return p;
     }
   }
-  CameraPerceptionOptions co;
-  co.T_world_crop = o.T_world_crop;
-  co.crop_half = o.crop_half;
-  co.crop_height = o.crop_height;
-  co.depth_sigma_k = o.noise.k;  // the sensor's datasheet: the noise the experiment gives it
-  co.max_missing = o.max_missing_depth;
-  const CameraPerceptionResult r = detectKnownObjects(frame, o.shapes, co, ctx.rng_perception);
+  CameraPerceptionResult r;
+  if (o.unknown_objects) {  // no model: each segment of the depth, as the columns under its points
+    SegmentationOptions so;
+    so.T_world_region = o.T_world_crop;
+    so.region_half = o.crop_half;
+    so.region_height = o.crop_height;
+    const Segmentation segments = segmentDepth(frame, so);
+    for (const Segment& s : segments.segments) r.detections.push_back({segmentObject(s, o.T_world_crop)});
+    r.ok = true;
+  } else {
+    CameraPerceptionOptions co;
+    co.T_world_crop = o.T_world_crop;
+    co.crop_half = o.crop_half;
+    co.crop_height = o.crop_height;
+    co.depth_sigma_k = o.noise.k;  // the sensor's datasheet: the noise the experiment gives it
+    co.max_missing = o.max_missing_depth;
+    r = detectKnownObjects(frame, o.shapes, co, ctx.rng_perception);
+  }
   ctx.seen_obstacles = r.unexplained;  // what the camera saw and could not explain: avoided, not hit
   for (const CameraDetection& d : r.detections) {
     ObjectState seen = d.object;
@@ -107,7 +119,9 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
     std::vector<char> taken(truth.size(), 0);
     for (const ObjectState& seen : p.objects) {
       int best = -1;
-      double best_dist = 0.03;
+      // A model's detection is matched within 3 cm of its object; a segment's box, within its
+      // footprint's half diagonal (its centre is its points', not the object's).
+      double best_dist = o.unknown_objects ? std::max(0.03, seen.half_size.head<2>().norm()) : 0.03;
       for (size_t i = 0; i < truth.size(); ++i) {
         const double dist = (truth[i].T_world_object.translation() - seen.T_world_object.translation()).norm();
         if (!taken[i] && dist < best_dist) best = static_cast<int>(i), best_dist = dist;
@@ -123,6 +137,7 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
         const PoseError e = poseError(seen.T_world_object, t.T_world_object, t.half_size, t.shape);
         rec.object = t.index;
         rec.centre_error = e.centre, rec.rotation_error = e.rotation, rec.mssd = e.mssd;
+        if (o.unknown_objects) rec.rotation_error = rec.mssd = -1;  // a segment's columns have no orientation of the object's
         ctx.truth_of[seen.index] = t.index;
       }
       ctx.out.detections.push_back(rec);

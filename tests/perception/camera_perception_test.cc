@@ -314,5 +314,44 @@ TEST(Truth, CameraModeGraspsFromThePointsNeverReadTheTruthToDecide) {
   EXPECT_GE(picks, trials);
 }
 
+TEST(Truth, UnknownObjectsAreSegmentedInCameraModeAndNeverReadTheTruthToDecide) {
+  // Clutter rounds of generated objects in camera mode: no model, so each segment of the depth is a
+  // perceived object (the columns under its points) and grasps come from the points. The truth
+  // stays closed (a read would be a crash of the trial); it only scores.
+  testing_cli::TempDir tmp;
+  const std::string out = (tmp.path() / "unknown").string();
+  // Two rounds (one, and at most a minute of simulated time, under the sanitizers, where the
+  // detector's seconds become minutes).
+  const int trials = testing_sanitized::sanitizedOr(1, 2);
+  const std::string args = "run experiments/clutter_pile.yaml --trials " + std::to_string(trials) +
+                           (testing_sanitized::kSanitized ? " --set grasp.cloud_seeds=100 --set bt.time_budget=60" : "") +
+                           " --set progress=none --set perception.mode=camera --set tree=experiments/trees/clutter_removal_cloud.xml";
+  const auto run = testing_cli::runMinimanip(args + " --jobs 2 --out " + out);
+  ASSERT_EQ(run.code, 0) << run.out;
+  int matched = 0, in_tray = 0;
+  const std::vector<testing_cli::json> two = testing_cli::readTrials(out);
+  ASSERT_EQ(two.size(), static_cast<size_t>(trials));
+  for (const auto& t : two) {
+    EXPECT_NE(t["failure_kind"], "crash") << t.dump();
+    EXPECT_NE(t["tree_status"], "ERROR") << t.dump();
+    EXPECT_FALSE(t["detections"].empty());
+    for (const auto& d : t["detections"])
+      if (d["object"].get<int>() >= 0) {
+        ++matched;
+        EXPECT_EQ(d["rotation_error"], -1) << "a segment has no orientation of its object's";
+      }
+    for (const auto& a : t["grasp_attempts"]) in_tray += a["result"] == "in_tray";
+  }
+  EXPECT_GT(matched, 0);
+  EXPECT_GE(in_tray, 1);
+  if (testing_sanitized::kSanitized) return;
+  // One worker, the same outcomes.
+  const auto one = testing_cli::runMinimanip(args + " --jobs 1 --out " + out + "_1");
+  ASSERT_EQ(one.code, 0) << one.out;
+  const std::vector<testing_cli::json> single = testing_cli::readTrials(out + "_1");
+  ASSERT_EQ(single.size(), two.size());
+  for (size_t i = 0; i < two.size(); ++i) EXPECT_EQ(testing_cli::outcomeFields(single[i]), testing_cli::outcomeFields(two[i]));
+}
+
 }  // namespace
 }  // namespace mm

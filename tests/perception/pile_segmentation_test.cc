@@ -70,6 +70,30 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
   const Segmentation again = segmentDepth(frame, o);
   ASSERT_EQ(again.segments.size(), seg.segments.size());
   for (size_t s = 0; s < seg.segments.size(); ++s) EXPECT_EQ(again.segments[s].pixels, seg.segments[s].pixels);
+  // Each segment as the robot knows its object: every point of it inside one of its columns, and
+  // every column standing on the bin's floor.
+  for (const Segment& sg : seg.segments) {
+    const ObjectState ob = segmentObject(sg, T_bin);
+    ASSERT_TRUE(ob.pieces && !ob.pieces->empty());
+    const Pose T_object_world = ob.T_world_object.inverse();
+    int outside = 0;
+    for (const Vec3& p : sg.points) {
+      const Vec3 q = T_object_world * p;
+      bool in = false;
+      for (const ConvexPiece& c : *ob.pieces) {
+        double worst = -INFINITY;
+        for (const auto& [normal, d] : c.planes) worst = std::max(worst, normal.dot(q) - d);
+        in = in || worst <= 1e-9;
+      }
+      outside += !in;
+    }
+    EXPECT_EQ(outside, 0) << "of " << sg.points.size() << " points";
+    for (const ConvexPiece& c : *ob.pieces) {
+      double bottom = INFINITY;
+      for (const Vec3& v : c.vertices) bottom = std::min(bottom, v.z());
+      EXPECT_NEAR((T_bin.inverse() * (ob.T_world_object * Vec3(0, 0, bottom))).z(), 0, 1e-9);
+    }
+  }
   score.seconds += seg.seconds;
   ++score.views;
   score.segments += static_cast<int>(seg.segments.size());
