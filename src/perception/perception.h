@@ -42,7 +42,7 @@ struct PerceptionOptions {
   Pose T_world_camera = Pose::Identity();
   std::vector<KnownShape> shapes;  ///< the kinds that can be in the bin (the experiment's catalogue kinds)
   /// The bin holds objects the robot has no model of (generated, or meshes): the depth is cut into
-  /// segments (perception/segmentation.h), each known as an upright box around its points.
+  /// segments (perception/segmentation.h), each known as the columns under its points (segmentObject).
   bool unknown_objects = false;
 };
 

@@ -57,8 +57,8 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o);
 /// camera saw of it (what is under a seen surface is unknown, so taken as occupied), as an
 /// occupancy map of the bin would hold it. In the region's frame (z up from its floor), turned to
 /// the principal axes of the segment's points seen from above, the points are binned into cells
-/// (`cell` along the major axis, 5/6 of it across); neighbouring cells along the major axis whose
-/// tops differ by at most `step` join; each run is one column, a box from the floor to its highest
+/// (`cell` along the major axis, 5/6 of it across); neighbouring cells along the major axis join
+/// while the run's tops stay within `step` of each other; each run is one column, a box from the floor to its highest
 /// point. The object (shape kMesh, the columns its convex pieces) has its frame at the middle of
 /// the columns' bounding box, z up; its mass is unknown (0).
 ObjectState segmentObject(const Segment& s, const Pose& T_world_region, double cell = 0.012, double step = 0.01);

@@ -53,10 +53,11 @@ bool captureView(TrialContext& ctx, Frame& frame, std::string* why) { return cap
 
 namespace {
 
-// Camera mode: the camera's depth image through detectKnownObjects. Every detection is what the robot
-// knows, under an id of its own; a false one included (the robot finds out by trying). The
-// simulator's truth only scores it afterwards: each detection is matched to the true object
-// nearest it (within 3 cm) for its pose errors and the trial's bookkeeping (truth_of), a detection
+// Camera mode: the camera's depth image through detectKnownObjects, or, for objects with no model,
+// cut into segments (segmentDepth, segmentObject). Every detection is what the robot knows, under
+// an id of its own; a false one included (the robot finds out by trying). The simulator's truth
+// only scores it afterwards: each detection is matched to the true object nearest it (within 3 cm;
+// a segment, within its footprint's half diagonal) for its pose errors and the trial's bookkeeping (truth_of), a detection
 // near none is recorded as false, an object in the bin no detection found as missed.
 PerceptionResult perceiveByCamera(TrialContext& ctx) {
   const PerceptionOptions& o = ctx.perception;
