@@ -141,12 +141,17 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
     s.top = std::max(s.top, (T_region_world * p_world).z());
   }
   for (Segment& s : segments) {
-    if (s.pixels.empty() || static_cast<int>(s.pixels.size()) < o.min_pixels) continue;  // merged away, or noise
+    const int size = static_cast<int>(s.pixels.size());
+    if (size == 0 || size < o.min_obstacle_pixels) continue;  // merged away, or the depth's noise
     for (const Vec3& p : s.points) s.centroid += p;
     s.centroid /= static_cast<double>(s.points.size());
-    out.segments.push_back(std::move(s));
+    if (size >= o.min_pixels)
+      out.segments.push_back(std::move(s));
+    else if (s.top >= o.min_obstacle_height)
+      out.small.push_back(std::move(s));
   }
-  std::sort(out.segments.begin(), out.segments.end(), [](const Segment& a, const Segment& b) { return a.pixels[0] < b.pixels[0]; });
+  for (auto* list : {&out.segments, &out.small})
+    std::sort(list->begin(), list->end(), [](const Segment& a, const Segment& b) { return a.pixels[0] < b.pixels[0]; });
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }
@@ -181,11 +186,16 @@ ObjectState segmentObject(const Segment& s, const Pose& T_world_region, double c
   // column's box would have no preferred axes).
   const double ca = cell, cb = cell * 5 / 6;
   const int na = std::max(1, static_cast<int>(std::ceil((hi.x() - lo.x()) / ca))), nb = std::max(1, static_cast<int>(std::ceil((hi.y() - lo.y()) / cb)));
+  // Each cell's highest point and the extent of its points (a column hugs its points, not the
+  // whole cell: the cells of two touching segments overlap, their points do not).
   std::vector<double> height(static_cast<size_t>(na * nb), -1);
+  std::vector<Eigen::Vector4d> extent(static_cast<size_t>(na * nb), Eigen::Vector4d(INFINITY, -INFINITY, INFINITY, -INFINITY));
   for (const Eigen::Vector3d& p : abz) {
     const int i = std::clamp(static_cast<int>((p.x() - lo.x()) / ca), 0, na - 1), j = std::clamp(static_cast<int>((p.y() - lo.y()) / cb), 0, nb - 1);
-    double& h = height[static_cast<size_t>(j * na + i)];
-    h = std::max(h, p.z());
+    const size_t k = static_cast<size_t>(j * na + i);
+    height[k] = std::max(height[k], p.z());
+    Eigen::Vector4d& e = extent[k];
+    e[0] = std::min(e[0], p.x()), e[1] = std::max(e[1], p.x()), e[2] = std::min(e[2], p.y()), e[3] = std::max(e[3], p.y());
   }
   // The object's frame: the middle of the bounding box, on the principal axes, z up.
   const Eigen::Vector2d mid_ab = (lo + hi) / 2;
@@ -197,8 +207,12 @@ ObjectState segmentObject(const Segment& s, const Pose& T_world_region, double c
   object.half_size = Vec3(std::max((hi.x() - lo.x()) / 2, 1e-3), std::max((hi.y() - lo.y()) / 2, 1e-3), top / 2);
   auto pieces = std::make_shared<std::vector<ConvexPiece>>();
   auto column = [&](int i0, int i1, int j, double h) {
-    const double a0 = lo.x() + i0 * ca - mid_ab.x(), a1 = std::min(hi.x(), lo.x() + (i1 + 1) * ca) - mid_ab.x();
-    const double b0 = lo.y() + j * cb - mid_ab.y(), b1 = std::min(hi.y(), lo.y() + (j + 1) * cb) - mid_ab.y();
+    Eigen::Vector4d e(INFINITY, -INFINITY, INFINITY, -INFINITY);
+    for (int i = i0; i <= i1; ++i) {
+      const Eigen::Vector4d& c = extent[static_cast<size_t>(j * na + i)];
+      e[0] = std::min(e[0], c[0]), e[1] = std::max(e[1], c[1]), e[2] = std::min(e[2], c[2]), e[3] = std::max(e[3], c[3]);
+    }
+    const double a0 = e[0] - mid_ab.x(), a1 = e[1] - mid_ab.x(), b0 = e[2] - mid_ab.y(), b1 = e[3] - mid_ab.y();
     const Vec3 c0(a0, b0, -top / 2), c1(std::max(a1, a0 + 1e-3), std::max(b1, b0 + 1e-3), h - top / 2);
     ConvexPiece piece;
     for (int k = 0; k < 8; ++k) piece.vertices.emplace_back(k & 1 ? c1.x() : c0.x(), k & 2 ? c1.y() : c0.y(), k & 4 ? c1.z() : c0.z());

@@ -32,7 +32,9 @@ struct SegmentationOptions {
   double smoothness = 0.0;             ///< LCCP's smoothness threshold (0: no smoothness check)
   int k_factor = 0;                    ///< extended convexity: common neighbours convex to both (0: none)
   int min_supervoxels = 3;             ///< a segment of at most this many supervoxels joins its largest neighbour (LCCP's rule)
-  int min_pixels = 30;                 ///< segments of fewer pixels are dropped (noise)
+  int min_pixels = 30;                 ///< segments of fewer pixels are no object (Segmentation::small) ...
+  int min_obstacle_pixels = 8;         ///< ... and of fewer than this, or whose top is ...
+  double min_obstacle_height = 0.012;  ///< [m] ... lower than this above the floor, the depth's noise (dropped)
 };
 
 /// One segment: its pixels (v * width + u, ascending) and its points in the world.
@@ -45,6 +47,7 @@ struct Segment {
 
 struct Segmentation {
   std::vector<Segment> segments;  ///< by their first pixel
+  std::vector<Segment> small;     ///< too small to be an object, seen all the same (obstacles), by their first pixel
   int points = 0;                 ///< the pixels inside the bin, above its floor
   int supervoxels = 0;
   double seconds = 0;             ///< wall clock (benchmarks print it; nothing decides by it)
@@ -58,8 +61,9 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o);
 /// occupancy map of the bin would hold it. In the region's frame (z up from its floor), turned to
 /// the principal axes of the segment's points seen from above, the points are binned into cells
 /// (`cell` along the major axis, 5/6 of it across); neighbouring cells along the major axis join
-/// while the run's tops stay within `step` of each other; each run is one column, a box from the floor to its highest
-/// point. The object (shape kMesh, the columns its convex pieces) has its frame at the middle of
+/// while the run's tops stay within `step` of each other; each run is one column, a box from the
+/// floor to its highest point, as wide and long as the run's points reach (not the whole cells:
+/// the cells of two touching segments overlap, their points do not). The object (shape kMesh, the columns its convex pieces) has its frame at the middle of
 /// the columns' bounding box, z up; its mass is unknown (0).
 ObjectState segmentObject(const Segment& s, const Pose& T_world_region, double cell = 0.012, double step = 0.01);
 

@@ -95,6 +95,12 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
     so.region_height = o.crop_height;
     const Segmentation segments = segmentDepth(frame, so);
     for (const Segment& s : segments.segments) r.detections.push_back({segmentObject(s, o.T_world_crop)});
+    // What no segment explains (a patch too small to be an object) is avoided as its columns.
+    for (const Segment& s : segments.small)
+      for (Obstacle& column : obstaclesOf(segmentObject(s, o.T_world_crop))) {
+        column.name = "unexplained_" + std::to_string(r.unexplained.size());
+        r.unexplained.push_back(std::move(column));
+      }
     r.ok = true;
   } else {
     CameraPerceptionOptions co;
@@ -148,7 +154,7 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
   }
   p.ok = !p.objects.empty();
   if (!p.ok && !r.unexplained.empty())
-    p.reason = "nothing recognised, but " + std::to_string(r.unexplained.size()) + " patch(es) rise above the bin floor";
+    p.reason = "nothing recognised, but unexplained points rise above the bin floor (" + std::to_string(r.unexplained.size()) + " box(es) of them)";
   else if (!p.ok)
     p.reason = r.ok ? "no object detected" : r.reason;
   return p;

@@ -189,7 +189,25 @@ Failure tryGrasp(TrialContext& ctx, const ObjectState& object, const GraspCandid
       if (s.type == Obstacle::Type::kBox && top <= bottom + kSupportTolerance) ls.attached_ignore.push_back(s.name);
     }
   }
-  auto lifting = makeChecker(o.checker, ctx.robot, ls, g.type == GraspType::kCloud ? checkers.padding : o.padding);
+  const double lift_padding = g.type == GraspType::kCloud ? checkers.padding : o.padding;
+  auto lifting = makeChecker(o.checker, ctx.robot, ls, lift_padding);
+  // A segment with no model is the columns under what the camera saw of it, and so is each of its
+  // neighbours and each patch no segment explains: where they overlap as it is grasped, the same
+  // space is claimed by both (the room under an overhang, one object cut in two), and which one
+  // holds it is unknown. Lifted straight up, the held object leaves such a neighbour as it leaves
+  // its support (MoveIt Task Constructor's pick allows the object's collisions with its support
+  // surfaces for the lift the same way); the hand and the arm are still checked against it.
+  if (ctx.perception.mode == PerceptionMode::kCamera && ctx.perception.unknown_objects) {
+    for (int k = 0; k < 8 && !lifting->isValid(out.q_grasp); ++k) {
+      const std::string hit = lifting->lastCollision(), held = "held object / ";
+      const std::string name = hit.compare(0, held.size(), held) == 0 ? hit.substr(held.size()) : "";
+      if (std::none_of(ctx.objects.begin(), ctx.objects.end(), [&](const ObjectState& b) { return b.name == name; }) &&
+          std::none_of(ctx.seen_obstacles.begin(), ctx.seen_obstacles.end(), [&](const Obstacle& b) { return b.name == name; }))
+        break;  // the hand, the arm or a part of the cell: a real collision
+      ls.attached_ignore.push_back(name);
+      lifting = makeChecker(o.checker, ctx.robot, ls, lift_padding);
+    }
+  }
   Pose T_lift = T_grasp;
   T_lift.translation().z() += o.lift_height;
   out.lift = planCartesianLine(ctx.robot, *lifting, out.q_grasp, T_lift, near, o.cartesian);

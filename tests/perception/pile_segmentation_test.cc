@@ -13,6 +13,7 @@
 
 #include "core/rng.h"
 #include "perception/camera_perception.h"
+#include "perception/perception.h"
 #include "perception/segmentation.h"
 #include "render/renderer.h"
 #include "../render/test_renderer.h"
@@ -92,7 +93,30 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
       double bottom = INFINITY;
       for (const Vec3& v : c.vertices) bottom = std::min(bottom, v.z());
       EXPECT_NEAR((T_bin.inverse() * (ob.T_world_object * Vec3(0, 0, bottom))).z(), 0, 1e-9);
+      // It hugs its points: a point on each of its four sides (but where a side was pushed out
+      // to keep the box 1 mm thick).
+      double low = INFINITY, high = -INFINITY;
+      for (const Vec3& v : c.vertices) low = std::min(low, v.z()), high = std::max(high, v.z());
+      for (const auto& [normal, d] : c.planes) {
+        if (std::abs(normal.z()) > 0.5) continue;
+        const auto& opposite = *std::find_if(c.planes.begin(), c.planes.end(), [&](const auto& pl) { return pl.first.dot(normal) < -0.5; });
+        if (d + opposite.second <= 1e-3 + 1e-9) continue;
+        double nearest = INFINITY;
+        for (const Vec3& p : sg.points) {
+          const Vec3 q = T_object_world * p;
+          bool in = true;
+          for (const auto& [n2, d2] : c.planes) in = in && n2.dot(q) - d2 <= 1e-9;
+          if (in) nearest = std::min(nearest, d - normal.dot(q));
+        }
+        EXPECT_LE(nearest, 1e-9) << "a column's side " << normal.transpose() << " clear of its points";
+      }
     }
+  }
+  // The patches too small to be objects rise above the floor's noise, and are seen all the same.
+  for (const Segment& sg : seg.small) {
+    EXPECT_LT(static_cast<int>(sg.pixels.size()), o.min_pixels);
+    EXPECT_GE(static_cast<int>(sg.pixels.size()), o.min_obstacle_pixels);
+    EXPECT_GE(sg.top, o.min_obstacle_height);
   }
   score.seconds += seg.seconds;
   ++score.views;
@@ -169,6 +193,33 @@ TEST(PileSegmentation, FindsTheVisibleUnknownObjectsOfDroppedPiles) {
   // hollow ones, at most 2% of segments false) is not reached yet.
   EXPECT_GE(found, 0.75 * visible);
   EXPECT_LE(s.false_segments, std::max(1, s.segments * 3 / 10));
+}
+
+// An empty bin seen through the stereo noise, as trials see it: the floor's noise is neither an object nor an
+// obstacle (a patch of it would keep the bin from being empty, and block grasps).
+TEST(PileSegmentation, AnEmptyBinsNoiseIsNeitherAnObjectNorAnObstacle) {
+  auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
+  const auto [T_bin, half] = w->site("bin_region");
+  SpawnOptions so;
+  so.count_min = so.count_max = 0;
+  Rng rng = Rng::stream(1, 0, Purpose::kScene);
+  const SpawnResult r = spawnObjects(*w, panda(), T_bin, half, rng, so);
+  ASSERT_TRUE(r.ok) << r.reason;
+  w->updateKinematics();
+  const PerceptionOptions trials;  // at the trials' resolution (more pixels: more noise patches of a given size)
+  const CameraModel cam = renderer().camera(*w, "overhead_camera", trials.camera_width, trials.camera_height, "(test)");
+  const Frame clean = renderer().render(*w, cam, kDepth);
+  SegmentationOptions o;
+  o.T_world_region = T_bin;
+  o.region_half = half;
+  for (uint64_t view = 0; view < static_cast<uint64_t>(testing_sanitized::sanitizedOr(2, 10)); ++view) {
+    Frame frame = clean;
+    Rng noise = Rng::stream(1, view, Purpose::kCamera);
+    applyDepthNoise(frame, DepthNoise{}, noise);
+    const Segmentation seg = segmentDepth(frame, o);
+    EXPECT_EQ(seg.segments.size(), 0u) << "view " << view;
+    EXPECT_EQ(seg.small.size(), 0u) << "view " << view;
+  }
 }
 
 }  // namespace
