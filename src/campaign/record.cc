@@ -54,7 +54,7 @@ void TrialRecord::describe(RecordArchive& a) {
   a.field("sim_time", o.sim_time, "s", "simulated time of the trial, evaluation rest included");
   a.field("compute_time", o.compute_time, "s", "wall time of the blocking computation");
   a.field("place_position_error", o.place_position_error, "m", "horizontal, the worst placed object");
-  a.field("place_orientation_error", o.place_orientation_error, "rad", "about the object's symmetry, the worst placed object");
+  a.field("place_orientation_error", o.place_orientation_error, "rad", "about the object's symmetry, the worst placed object (-1: objects with no model, no orientation to place them at)");
   a.field("in_hand_slip", o.in_hand_slip, "m",
           "the most a placed object moved in the hand from the fingers closing to their opening (the simulator's truth, never used by the pipeline)");
   a.field("collision_count", o.collision_count, "", "episodes of robot contact with the table, bins or tray");
@@ -78,7 +78,7 @@ void TrialRecord::describe(RecordArchive& a) {
     p.field("at_target", k.at_target, "", "let go of over its target by a place");
     p.field("placed", k.placed, "", "evaluated within the tolerances");
     p.field("position_error", k.position_error, "m", "horizontal");
-    p.field("orientation_error", k.orientation_error, "rad", "about its symmetry (from the target as turned: place_turn)");
+    p.field("orientation_error", k.orientation_error, "rad", "about its symmetry (from the target as turned: place_turn; -1: no model, no target orientation)");
     p.field("place_turn", k.place_turn, "rad",
             "the target turned about the vertical from the one asked, when at that yaw the hand met a neighbour (place.any_yaw; 0: as asked)");
     std::vector<double> target{k.T_world_target.translation().x(), k.T_world_target.translation().y(),

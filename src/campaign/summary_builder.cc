@@ -108,7 +108,7 @@ void SummaryBuilder::add(const TrialRecord& r) {
   sim_.add(o.sim_time);
   place_mm_.add(1000.0 * o.place_position_error);
   slip_mm_.add(1000.0 * o.in_hand_slip);
-  orient_deg_.add(180.0 / M_PI * o.place_orientation_error);
+  if (o.place_orientation_error >= 0) orient_deg_.add(180.0 / M_PI * o.place_orientation_error);  // -1: no target
   parts_["perception_time"].add(o.perception_time);
   parts_["plan_pick_time"].add(o.plan_pick_time);
   parts_["execute_pick_time"].add(o.execute_pick_time);

@@ -37,6 +37,12 @@ void finishTrial(TrialContext& ctx, bool tree_succeeded) {
     }
   }
   Failure evaluation;
+  // An object the robot had no model of (camera mode, segmented) was placed as what it saw: the
+  // columns under its points, whose middle is not the object's origin and whose axes are not its
+  // own. Where it came to rest on the tray is judged; its orientation and height have no target
+  // (its orientation error: -1).
+  const bool no_model = ctx.perception.mode == PerceptionMode::kCamera && ctx.perception.unknown_objects;
+  if (no_model) out.place_orientation_error = -1;
   for (PickRecord& p : out.picks) {
     if (!evaluated_ok) break;
     if (!p.at_target) {
@@ -51,10 +57,6 @@ void finishTrial(TrialContext& ctx, bool tree_succeeded) {
     p.orientation_error = objectSymmetricAngle(o.T_world_object.linear(), p.T_world_target.linear(), o.shape, o.half_size);
     const double rest_error = std::abs(pos.z() - goal.z());
     const double speed = hw.objectVelocity(p.object).norm();
-    // An object the robot had no model of (camera mode, segmented) was placed as what it saw: the
-    // columns under its points, whose middle is not the object's origin and whose axes are not its
-    // own. Where it came to rest on the tray is judged; its orientation and height have no target.
-    const bool no_model = ctx.perception.mode == PerceptionMode::kCamera && ctx.perception.unknown_objects;
     if (p.position_error > ctx.options.tolerance_position)
       p.reason = "object " + std::to_string(p.position_error * 1000) + " mm from the place target";
     else if (!no_model && p.orientation_error > ctx.options.tolerance_orientation)
@@ -66,7 +68,10 @@ void finishTrial(TrialContext& ctx, bool tree_succeeded) {
     p.placed = p.reason.empty();
     if (!p.placed && evaluation.ok()) evaluation = {"evaluate", FailureKind::kPlacement, p.reason};
     out.place_position_error = std::max(out.place_position_error, p.position_error);
-    out.place_orientation_error = std::max(out.place_orientation_error, p.orientation_error);
+    if (no_model)
+      p.orientation_error = -1;
+    else
+      out.place_orientation_error = std::max(out.place_orientation_error, p.orientation_error);
     out.in_hand_slip = std::max(out.in_hand_slip, p.in_hand_slip);
   }
   if (tree_succeeded && evaluated_ok) {

@@ -45,7 +45,7 @@ struct PickRecord {
   bool placed = false;             ///< evaluated within the tolerances
   double position_error = 0;       ///< [m] horizontal
   Vec3 offset = Vec3::Zero();      ///< [m] where it rests minus its target (world frame)
-  double orientation_error = 0;    ///< [rad] about the object's symmetry
+  double orientation_error = 0;    ///< [rad] about the object's symmetry (-1: no model, no target orientation)
   double place_turn = 0;           ///< [rad] its target turned about the vertical from the one asked (place.any_yaw)
   int grasp_candidates_tried = 0;
   double grasp_opening = 0;        ///< [m] per finger after closing
@@ -140,7 +140,7 @@ struct TrialOutcome {
          execute_place_time = 0, return_home_time = 0, total_time = 0;
   double sim_time = 0;      ///< simulated seconds of the whole trial (deterministic)
   double compute_time = 0;  ///< wall seconds of the blocking computation
-  double place_position_error = 0, place_orientation_error = 0;  ///< the worst placed object's
+  double place_position_error = 0, place_orientation_error = 0;  ///< the worst placed object's (orientation: -1 with no model)
   double in_hand_slip = 0;  ///< [m] the most any object moved in the hand between grasp and release (ground truth)
   int collision_count = 0;
   std::vector<std::string> collision_log;

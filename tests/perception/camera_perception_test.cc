@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 
 #include "../campaign/cli_helpers.h"
 #include "perception/camera_perception.h"
@@ -341,9 +342,17 @@ TEST(Truth, UnknownObjectsAreSegmentedInCameraModeAndNeverReadTheTruthToDecide) 
         EXPECT_EQ(d["rotation_error"], -1) << "a segment has no orientation of its object's";
       }
     for (const auto& a : t["grasp_attempts"]) in_tray += a["result"] == "in_tray";
+    // Placed with no target orientation: none is measured, and none enters the summary.
+    EXPECT_EQ(t["place_orientation_error"], -1);
+    for (const auto& p : t["picks"])
+      if (p["at_target"].get<bool>()) {
+        EXPECT_EQ(p["orientation_error"], -1);
+      }
   }
   EXPECT_GT(matched, 0);
   EXPECT_GE(in_tray, 1);
+  const testing_cli::json summary = testing_cli::json::parse(std::ifstream(out + "/summary.json"));
+  EXPECT_GE(summary["place_orientation_error_deg"]["max"].get<double>(), 0);
   if (testing_sanitized::kSanitized) return;
   // One worker, the same outcomes.
   const auto one = testing_cli::runMinimanip(args + " --jobs 1 --out " + out + "_1");
