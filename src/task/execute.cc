@@ -251,10 +251,26 @@ class PlanExecution final : public Motion {
 
   // The simulator's bookkeeping of what the fingers closed on (for the records, the weld and the
   // drop monitor): the object the robot meant, when it is one; else, a false detection's, the real
-  // object nearest the TCP (within 3 cm), or none.
+  // object nearest the TCP (within 3 cm), or none. A segment (camera mode, no model) was matched
+  // to the truth loosely (within its footprint's half diagonal: a segment of two objects, or of a
+  // part of one, may have been matched to the wrong one): when the robot touches objects but not
+  // the one meant, it holds the touched one nearest the TCP.
   int objectInFingers(const Hardware& hw, int meant) const {
     const TruthScope bookkeeping(hw, "what the fingers closed on");
     const std::vector<ObjectState> world = hw.objects();
+    if (ctx_.perception.mode == PerceptionMode::kCamera && ctx_.perception.unknown_objects) {
+      const std::vector<int> touched = hw.objectsTouched();
+      if (!touched.empty() && std::find(touched.begin(), touched.end(), meant) == touched.end()) {
+        int nearest = -1;
+        double best = INFINITY;
+        for (const ObjectState& o : world) {
+          if (std::find(touched.begin(), touched.end(), o.index) == touched.end()) continue;
+          const double d = (o.T_world_object.translation() - hw.tcpPose().translation()).norm();
+          if (d < best) best = d, nearest = o.index;
+        }
+        if (nearest >= 0) return nearest;
+      }
+    }
     if (std::any_of(world.begin(), world.end(), [&](const ObjectState& o) { return o.index == meant; })) return meant;
     int object = -1;
     double best = 0.03;
