@@ -63,8 +63,9 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o);
 /// (`cell` along the major axis, 5/6 of it across); neighbouring cells along the major axis join
 /// while the run's tops stay within `step` of each other; each run is one column, a box from the
 /// floor to its highest point, as wide and long as the run's points reach (not the whole cells:
-/// the cells of two touching segments overlap, their points do not). The object (shape kMesh, the columns its convex pieces) has its frame at the middle of
-/// the columns' bounding box, z up; its mass is unknown (0).
+/// the cells of two touching segments overlap, their points do not). The object (shape kMesh, the
+/// columns its convex pieces) has its frame at the middle of the columns' bounding box, z up; its
+/// mass is unknown (0).
 ObjectState segmentObject(const Segment& s, const Pose& T_world_region, double cell = 0.012, double step = 0.01);
 
 }  // namespace mm
