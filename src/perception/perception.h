@@ -46,6 +46,10 @@ struct PerceptionOptions {
   bool unknown_objects = false;
 };
 
+/// True when the robot knows the objects only as the depth's segments (camera mode, no model):
+/// their truth matched loosely, no orientation of theirs known.
+inline bool segmentedObjects(const PerceptionOptions& o) { return o.mode == PerceptionMode::kCamera && o.unknown_objects; }
+
 /// True when `o` lies inside the sensor's crop box (see PerceptionOptions).
 bool insideCrop(const ObjectState& o, const PerceptionOptions& options);
 

@@ -41,7 +41,7 @@ void finishTrial(TrialContext& ctx, bool tree_succeeded) {
   // columns under its points, whose middle is not the object's origin and whose axes are not its
   // own. Where it came to rest on the tray is judged; its orientation and height have no target
   // (its orientation error: -1).
-  const bool no_model = ctx.perception.mode == PerceptionMode::kCamera && ctx.perception.unknown_objects;
+  const bool no_model = segmentedObjects(ctx.perception);
   if (no_model) out.place_orientation_error = -1;
   for (PickRecord& p : out.picks) {
     if (!evaluated_ok) break;

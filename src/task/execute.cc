@@ -258,7 +258,7 @@ class PlanExecution final : public Motion {
   int objectInFingers(const Hardware& hw, int meant) const {
     const TruthScope bookkeeping(hw, "what the fingers closed on");
     const std::vector<ObjectState> world = hw.objects();
-    if (ctx_.perception.mode == PerceptionMode::kCamera && ctx_.perception.unknown_objects) {
+    if (segmentedObjects(ctx_.perception)) {
       const std::vector<int> touched = hw.objectsTouched();
       if (!touched.empty() && std::find(touched.begin(), touched.end(), meant) == touched.end()) {
         int nearest = -1;

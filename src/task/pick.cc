@@ -197,7 +197,7 @@ Failure tryGrasp(TrialContext& ctx, const ObjectState& object, const GraspCandid
   // holds it is unknown. Lifted straight up, the held object leaves such a neighbour as it leaves
   // its support (MoveIt Task Constructor's pick allows the object's collisions with its support
   // surfaces for the lift the same way); the hand and the arm are still checked against it.
-  if (ctx.perception.mode == PerceptionMode::kCamera && ctx.perception.unknown_objects) {
+  if (segmentedObjects(ctx.perception)) {
     for (int k = 0; k < 8 && !lifting->isValid(out.q_grasp); ++k) {
       const std::string hit = lifting->lastCollision(), held = "held object / ";
       const std::string name = hit.compare(0, held.size(), held) == 0 ? hit.substr(held.size()) : "";
