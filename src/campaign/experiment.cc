@@ -178,6 +178,9 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
                                                                                            : e.params.origin(std::string("faults.") + faultKindName(k)),
                        std::string("faults.") + faultKindName(k) + " strikes the camera: it needs perception.mode camera");
   }
+  if (e.perception.segmentation == SegmentationSource::kLabels && e.perception.mode != PerceptionMode::kCamera)
+    throw InputError(e.params.origin("perception.segmentation").empty() ? path : e.params.origin("perception.segmentation"),
+                     "perception.segmentation labels segments the camera's view: it needs perception.mode camera");
   if (500 % e.render.fps != 0)
     throw InputError(path, "render.fps is " + std::to_string(e.render.fps) +
                                ", expected a divisor of the 500 Hz control rate (e.g. 10, 20, 25, 50, 100)");

@@ -79,7 +79,9 @@ TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial
   Rng camera_noise = Rng::stream(e_.seed, trial, Purpose::kCamera);
   if (renderer_ && needs_camera_)
     backend.setCameraSource([&](const std::string& name, int width, int height, Frame& frame, std::string*) {
-      frame = renderer_->render(world, renderer_->camera(world, name, width, height, e_.file), kDepth);
+      // The oracle's segmentation reads the renderer's labels (perception.segmentation: labels).
+      const unsigned kinds = e_.perception.segmentation == SegmentationSource::kLabels ? kDepth | kSegmentation : kDepth;
+      frame = renderer_->render(world, renderer_->camera(world, name, width, height, e_.file), kinds);
       applyDepthNoise(frame, e_.perception.noise, camera_noise);
       return true;
     });

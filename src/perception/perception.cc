@@ -32,6 +32,10 @@ void PerceptionOptions::declare(ConfigArchive& a) {
           "perception/cell_registration.h); if that moves a point of the bin further than this from where the extrinsics put it, "
           "the camera has moved (knocked off its mount): the perception fails saying so, and a recovering tree registers the "
           "camera again (RegisterCamera); 0: no check");
+  a.named("segmentation", segmentation, {{"depth", SegmentationSource::kDepth}, {"labels", SegmentationSource::kLabels}},
+          "camera mode, objects with no model: depth: the depth image cut into segments (supervoxels and LCCP); labels: an "
+          "oracle, the renderer's per-object labels cut the same points into one segment per object (no real camera has "
+          "them: with depth_noise 0 and edge_dropout 0 it separates what perception loses from what grasping loses)");
   a.value("edge_dropout", noise.edge_dropout, {0.0, 1.0}, "",
           "camera mode: the chance a pixel at a depth edge (its 3x3 neighbourhood spanning more than 1 cm) has no depth, as stereo matching fails there");
 }

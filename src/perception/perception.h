@@ -13,6 +13,8 @@
 namespace mm {
 
 enum class PerceptionMode { kHardcoded, kGroundTruth, kCamera };
+/// Where camera mode's segments of objects with no model come from.
+enum class SegmentationSource { kDepth, kLabels };
 
 struct PerceptionOptions {
   /// Keys mode, noise_position, noise_yaw (section "perception").
@@ -44,6 +46,9 @@ struct PerceptionOptions {
   /// The bin holds objects the robot has no model of (generated, or meshes): the depth is cut into
   /// segments (perception/segmentation.h), each known as the columns under its points (segmentObject).
   bool unknown_objects = false;
+  /// The depth cut into segments (segmentDepth); or an oracle's, the renderer's per-object labels
+  /// (segmentLabels), which no real camera gives: it measures what segmentation loses.
+  SegmentationSource segmentation = SegmentationSource::kDepth;
 };
 
 /// True when the robot knows the objects only as the depth's segments (camera mode, no model):

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <map>
 #include <set>
+#include <stdexcept>
 
 #include <Eigen/Eigenvalues>
 #include <pcl/point_cloud.h>
@@ -15,6 +16,36 @@
 #include <pcl/segmentation/supervoxel_clustering.h>
 
 namespace mm {
+
+namespace {
+
+constexpr int kFirstObjectLabel = 2, kObstacleLabel = 255;  // core/camera.h's labels: 2 + k object k, 255 an obstacle
+
+// A point (in the region's frame) segmentation looks at: over the footprint less the walls'
+// margin, above the floor's noise, below the tallest object.
+bool insideRegion(const Vec3& q, const SegmentationOptions& o) {
+  return std::abs(q.x()) <= o.region_half.x() - o.wall_margin && std::abs(q.y()) <= o.region_half.y() - o.wall_margin &&
+         q.z() >= o.floor_margin && q.z() <= o.region_height;
+}
+
+// The segments as objects (min_pixels or more), as pieces too small to be objects but rising above
+// the floor's noise (Segmentation::small), or dropped; each list by its first pixel.
+void keepSegments(std::vector<Segment>& segments, const SegmentationOptions& o, Segmentation& out) {
+  for (Segment& s : segments) {
+    const int size = static_cast<int>(s.pixels.size());
+    if (size == 0 || size < o.min_obstacle_pixels) continue;  // merged away, or the depth's noise
+    for (const Vec3& p : s.points) s.centroid += p;
+    s.centroid /= static_cast<double>(s.points.size());
+    if (size >= o.min_pixels)
+      out.segments.push_back(std::move(s));
+    else if (s.top >= o.min_obstacle_height)
+      out.small.push_back(std::move(s));
+  }
+  for (auto* list : {&out.segments, &out.small})
+    std::sort(list->begin(), list->end(), [](const Segment& a, const Segment& b) { return a.pixels[0] < b.pixels[0]; });
+}
+
+}  // namespace
 
 Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -32,9 +63,7 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
       const float z = frame.depth[static_cast<size_t>(i)];
       if (!(z > 0)) continue;
       const Vec3 p_cam((u - cam.cx) * z / cam.fx, (v - cam.cy) * z / cam.fy, z);
-      const Vec3 q = T_region_camera * p_cam;
-      if (std::abs(q.x()) > o.region_half.x() - o.wall_margin || std::abs(q.y()) > o.region_half.y() - o.wall_margin) continue;
-      if (q.z() < o.floor_margin || q.z() > o.region_height) continue;
+      if (!insideRegion(T_region_camera * p_cam, o)) continue;
       cloud->push_back(pcl::PointXYZ(static_cast<float>(p_cam.x()), static_cast<float>(p_cam.y()), static_cast<float>(p_cam.z())));
       pixel_of.push_back(i);
     }
@@ -140,18 +169,36 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
     s.points.push_back(p_world);
     s.top = std::max(s.top, (T_region_world * p_world).z());
   }
-  for (Segment& s : segments) {
-    const int size = static_cast<int>(s.pixels.size());
-    if (size == 0 || size < o.min_obstacle_pixels) continue;  // merged away, or the depth's noise
-    for (const Vec3& p : s.points) s.centroid += p;
-    s.centroid /= static_cast<double>(s.points.size());
-    if (size >= o.min_pixels)
-      out.segments.push_back(std::move(s));
-    else if (s.top >= o.min_obstacle_height)
-      out.small.push_back(std::move(s));
-  }
-  for (auto* list : {&out.segments, &out.small})
-    std::sort(list->begin(), list->end(), [](const Segment& a, const Segment& b) { return a.pixels[0] < b.pixels[0]; });
+  keepSegments(segments, o, out);
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+Segmentation segmentLabels(const Frame& frame, const SegmentationOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Segmentation out;
+  const CameraModel& cam = frame.camera;
+  const size_t n = static_cast<size_t>(cam.width) * static_cast<size_t>(cam.height);
+  if (frame.segmentation.size() != n) throw std::logic_error("segmentLabels: the frame has no segmentation image");
+  const Pose T_region_world = o.T_world_region.inverse();
+  std::map<int, Segment> by_label;  // an object's label (2 + k) -> its pixels
+  for (int v = 0; v < cam.height; ++v)
+    for (int u = 0; u < cam.width; ++u) {
+      const int i = v * cam.width + u;
+      const float z = frame.depth[static_cast<size_t>(i)];
+      const int label = frame.segmentation[static_cast<size_t>(i)];
+      if (!(z > 0) || label < kFirstObjectLabel || label == kObstacleLabel) continue;
+      const Vec3 p = cam.unproject(u, v, z), q = T_region_world * p;
+      if (!insideRegion(q, o)) continue;
+      Segment& s = by_label[label];
+      s.pixels.push_back(i);
+      s.points.push_back(p);
+      s.top = std::max(s.top, q.z());
+      ++out.points;
+    }
+  std::vector<Segment> segments;
+  for (auto& [label, s] : by_label) segments.push_back(std::move(s));
+  keepSegments(segments, o, out);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }

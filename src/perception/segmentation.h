@@ -56,6 +56,12 @@ struct Segmentation {
 /// The segments of `frame`'s depth inside the region.
 Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o);
 
+/// An oracle's segments: the renderer's per-object labels (Frame::segmentation) cut the same points
+/// of the region (its depth, as segmentDepth takes them) into one segment per object, with
+/// segmentDepth's rules for pieces too small to be objects. No real camera has these labels: it
+/// measures what segmentDepth loses, apart from what grasping loses.
+Segmentation segmentLabels(const Frame& frame, const SegmentationOptions& o);
+
 /// What the robot knows of a segment's object, having no model of it: the columns under what the
 /// camera saw of it (what is under a seen surface is unknown, so taken as occupied), as an
 /// occupancy map of the bin would hold it. In the region's frame (z up from its floor), turned to

@@ -93,7 +93,7 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
     so.T_world_region = o.T_world_crop;
     so.region_half = o.crop_half;
     so.region_height = o.crop_height;
-    const Segmentation segments = segmentDepth(frame, so);
+    const Segmentation segments = o.segmentation == SegmentationSource::kLabels ? segmentLabels(frame, so) : segmentDepth(frame, so);
     for (const Segment& s : segments.segments) r.detections.push_back({segmentObject(s, o.T_world_crop)});
     // What no segment explains (a patch too small to be an object) is avoided as its columns.
     for (const Segment& s : segments.small)

@@ -60,9 +60,16 @@ Failure cloudGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectStat
     out[slot[k]].second.push_back(g);
   }
   if (out.empty()) {
-    char buf[200];
-    std::snprintf(buf, sizeof buf, "no grasp from the camera's points closes on one perceived object (%zu candidates: %d on none, %d on two or more)",
-                  r.candidates.size(), none, several);
+    char buf[400];
+    if (r.candidates.empty())
+      std::snprintf(buf, sizeof buf,
+                    "no grasp from the camera's points (%d hands from %d seeds: %d too wide, %d too low, %d on the floor or a wall, %d fingers' "
+                    "and %d hand's approach blocked, %d sparse, %d not antipodal, %d into unseen space, %d tilted)",
+                    r.hands, r.seeds, r.too_wide, r.too_low, r.on_cell, r.fingers_blocked, r.hand_blocked, r.sparse, r.not_antipodal, r.unseen,
+                    r.tilted);
+    else
+      std::snprintf(buf, sizeof buf, "no grasp from the camera's points closes on one perceived object (%zu candidates: %d on none, %d on two or more)",
+                    r.candidates.size(), none, several);
     return done({"cloud_grasps", FailureKind::kNoGrasp, buf});
   }
   return done({});

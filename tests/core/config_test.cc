@@ -106,9 +106,11 @@ TEST_F(Config, EveryExperimentKeyRoundTripsThroughYamlSetAndTheResolvedFile) {
     const std::string v = otherValue(d);
     ASSERT_NE(v, d.default_value);
     const bool list = d.isList();
-    // A key that needs another (a camera fault: camera mode) gets it alongside.
-    const bool camera = d.key == "faults.camera_blackout" || d.key == "faults.depth_dropout" || d.key == "faults.extrinsics_drift";
-    const std::string also = camera ? "perception:\n  mode: camera\n" : "";
+    // A key that needs another (a camera fault, the oracle's segmentation: camera mode) gets it alongside.
+    const bool camera = d.key == "faults.camera_blackout" || d.key == "faults.depth_dropout" || d.key == "faults.extrinsics_drift" ||
+                        d.key == "perception.segmentation";
+    const bool in_perception = d.key.rfind("perception.", 0) == 0;  // then in the same section
+    const std::string also = !camera ? "" : in_perception ? "  mode: camera\n" : "perception:\n  mode: camera\n";
     // In a file: the ParamSet holds it and the struct field got it.
     Experiment from_file = loadExperiment(file("one.yaml", yamlOf(d.key, v, list) + also), {});
     EXPECT_TRUE(sameValue(d, from_file.params.getString(d.key), v)) << from_file.params.getString(d.key) << " vs " << v;
@@ -155,6 +157,19 @@ TEST_F(Config, PathsResolveAgainstTheFileTheWorkingDirectoryOrTheProjectRoot) {
   EXPECT_EQ(e.scene_path, (dir_ / "my_scene.xml").lexically_normal().string());         // the file's folder
   EXPECT_EQ(e.tree_path, "trees/t.xml");                                                // --set: the working directory
   EXPECT_EQ(e.robot_path, (fs::path(MINIMANIP_SOURCE_DIR) / "robots/panda/panda.yaml").string());  // default
+}
+
+// The oracle's segmentation reads the camera's labels: without camera mode it is bad input, as is a
+// source that does not exist.
+TEST(ExperimentInput, TheLabelsOracleNeedsCameraMode) {
+  try {
+    loadExperiment("experiments/clutter_pile.yaml", {"perception.segmentation=labels"});
+    ADD_FAILURE() << "perception.segmentation labels accepted with ground-truth perception";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("needs perception.mode camera"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(loadExperiment("experiments/clutter_pile.yaml", {"perception.segmentation=colour", "perception.mode=camera"}), InputError);
+  EXPECT_NO_THROW(loadExperiment("experiments/clutter_pile.yaml", {"perception.segmentation=labels", "perception.mode=camera"}));
 }
 
 }  // namespace

@@ -44,7 +44,8 @@ struct Score {
   int views = 0;
 };
 
-void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height, Score& score, bool verbose) {
+// `labels`: the oracle's segments (the renderer's labels), else the depth's.
+void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height, Score& score, bool verbose, bool labels) {
   const auto [T_bin, half] = w.site("bin_region");
   SpawnOptions so;
   so.generated.grades = shapeGrades();
@@ -66,9 +67,10 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
   SegmentationOptions o;
   o.T_world_region = T_bin;
   o.region_half = half;
-  const Segmentation seg = segmentDepth(frame, o);
+  auto segment = [&] { return labels ? segmentLabels(frame, o) : segmentDepth(frame, o); };
+  const Segmentation seg = segment();
   // The same image, the same segments (PCL on this thread).
-  const Segmentation again = segmentDepth(frame, o);
+  const Segmentation again = segment();
   ASSERT_EQ(again.segments.size(), seg.segments.size());
   for (size_t s = 0; s < seg.segments.size(); ++s) EXPECT_EQ(again.segments[s].pixels, seg.segments[s].pixels);
   // Each segment as the robot knows its object: every point of it inside one of its columns, and
@@ -166,11 +168,12 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
   for (size_t s = 0; s < seg.segments.size(); ++s) score.false_segments += !seg_used[s];
 }
 
-Score scorePiles(int piles, int width, int height, bool verbose) {
+Score scorePiles(int piles, int width, int height, bool verbose, bool labels = false) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score score;
-  for (int t = 0; t < piles; ++t) scorePile(*w, 1, static_cast<uint64_t>(t), width, height, score, verbose);
-  std::printf("%d piles at %dx%d, seed 1: %d segments, %d false; %.1f ms a view\n", piles, width, height, score.segments,
+  for (int t = 0; t < piles; ++t) scorePile(*w, 1, static_cast<uint64_t>(t), width, height, score, verbose, labels);
+  std::printf("%s: %d piles at %dx%d, seed 1: %d segments, %d false; %.1f ms a view\n", labels ? "the labels' oracle" : "the depth",
+              piles, width, height, score.segments,
               score.false_segments, 1e3 * score.seconds / std::max(1, score.views));
   for (const auto& [grade, g] : score.grades)
     std::printf("  %-7s objects %3d, visible >= 0.5: %3d, found %3d (%.1f%%)\n", grade.c_str(), g.objects, g.visible, g.found,
@@ -193,6 +196,17 @@ TEST(PileSegmentation, FindsTheVisibleUnknownObjectsOfDroppedPiles) {
   // hollow ones, at most 2% of segments false) is not reached yet.
   EXPECT_GE(found, 0.75 * visible);
   EXPECT_LE(s.false_segments, std::max(1, s.segments * 3 / 10));
+}
+
+// The oracle's segments (perception.segmentation: labels), from the same noisy depth: every object
+// visible enough found, no segment false. What the depth's segmentation is scored against.
+TEST(PileSegmentation, TheLabelsOracleFindsEveryVisibleObjectAndNoFalseSegment) {
+  const Score s = scorePiles(testing_sanitized::sanitizedOr(1, 4), 640, 480, false, true);
+  int visible = 0, found = 0;
+  for (const auto& [grade, g] : s.grades) visible += g.visible, found += g.found;
+  ASSERT_GT(visible, 0);
+  EXPECT_EQ(found, visible);
+  EXPECT_EQ(s.false_segments, 0);
 }
 
 // An empty bin seen through the stereo noise, as trials see it: the floor's noise is neither an object nor an
