@@ -202,6 +202,11 @@ class ExecuteMTCPlan final : public MotionAction {
       c.stage("execute_plan");
       return c.fail({"execute_plan", FailureKind::kPrecondition, "no plan to execute (PlanMTCPick or PlanMTCPlace first)"});
     }
+    if (c.plan->name == "pick") {
+      double open = 0;
+      for (const PlanStep& s : c.plan->steps) open = std::max(open, s.opening);
+      c.last_grasp = TrialContext::ChosenGrasp{c.plan->T_world_grasp, open};
+    }
     out = std::move(*c.plan);
     c.plan.reset();
     return {};

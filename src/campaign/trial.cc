@@ -13,6 +13,7 @@
 #include "render/trial_renders.h"
 #include "sim/hardware.h"
 #include "sim/sim_world.h"
+#include "task/pick_place.h"
 
 namespace mm {
 
@@ -58,6 +59,25 @@ std::string trialRenderDir(const std::string& dir, uint64_t trial) {
   return (std::filesystem::path(dir) / name).string();
 }
 
+namespace {
+
+// The fingers of the last grasp the robot executed a pick with, as open as its plan opened them,
+// as boxes in the world (pictures); none before the first.
+std::vector<WorldBox> fingersOf(const TrialContext& ctx, const GraspOptions& hand) {
+  std::vector<WorldBox> boxes;
+  if (!ctx.last_grasp) return boxes;
+  const double open = ctx.last_grasp->opening;
+  for (int side = -1; side <= 1; side += 2) {
+    WorldBox b;
+    b.half = Vec3(hand.pad_half_width, hand.finger_thickness / 2, (hand.pad_z_max - hand.pad_z_min) / 2);
+    b.T_world_box = ctx.last_grasp->T_world_tcp * makePose(Vec3(0, side * (open + b.half.y()), (hand.pad_z_max + hand.pad_z_min) / 2), Mat3::Identity());
+    boxes.push_back(b);
+  }
+  return boxes;
+}
+
+}  // namespace
+
 TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial, std::string& bt_log) {
   using Clock = std::chrono::steady_clock;
   std::unique_ptr<FaultInjector> faults;
@@ -67,9 +87,13 @@ TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial
   std::unique_ptr<TrialRenders> renders;
   const TrialContext* context = nullptr;
   size_t stages_seen = 0;
+  const GraspOptions hand = graspOptionsFor(cell_.robot->spec().gripper, e_.task);
   auto stages_ended = [&](bool all) {
     const std::vector<StageRecord>& s = context->out.stages;
-    while (stages_seen + (all ? 0 : 1) < s.size()) renders->stageEnded(s[stages_seen++].name);
+    while (stages_seen + (all ? 0 : 1) < s.size()) {
+      if (renders->wantsSegments() && context->last_view) renders->setSegments(context->last_view, context->last_segments, fingersOf(*context, hand));
+      renders->stageEnded(s[stages_seen++].name);
+    }
   };
   rendered_.clear();
   if (renderer_ && render_.renders(trial))
@@ -86,9 +110,11 @@ TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial
       return true;
     });
   Hardware& tapped = renders ? renders->wrap(backend, [&] { stages_ended(false); }) : backend;
+  const bool keep_view = renders && renders->wantsSegments();
   Hardware& hw = faults ? faults->wrap(tapped) : tapped;
   TrialContext ctx(hw, *cell_.robot, cell_.statics, e_.task, cell_.perception, e_.seed, trial);
   ctx.target_half_height = cell_.place_target_half_height;
+  ctx.keep_view = keep_view;
   context = &ctx;
   ctx.faults = faults.get();
   env_.ctx = &ctx;

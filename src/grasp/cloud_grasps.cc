@@ -217,10 +217,31 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
     const Eigen::SelfAdjointEigenSolver<Mat3> es(M);
     Vec3 normal = es.eigenvectors().col(2), axis = es.eigenvectors().col(0);
     if (normal.dot(N[seed]) < 0) normal = -normal;
-    // A face that is flat (normals all alike) curves about no axis in particular: try four.
+    // A face that is flat (normals all alike) curves about no axis in particular (the eigenvector
+    // the solver returns is any in its plane, the same for every seed of a noise-free face): the
+    // axis is taken along the face's longest extent around the seed, so that the first hand closes
+    // across its narrowest, and three more are tried turned by 45 degrees.
     std::vector<Vec3> axes{axis};
-    if (es.eigenvalues()(1) < 0.02 * es.eigenvalues()(2))
-      for (int k = 1; k < 4; ++k) axes.push_back(Eigen::AngleAxisd(M_PI / 4 * k, normal) * axis);
+    if (es.eigenvalues()(1) < 0.02 * es.eigenvalues()(2)) {
+      constexpr double kFaceRadius = 0.04, kFaceOffset = 0.003;  // [m] the face's points: this near the seed, this near its plane
+      const Vec3 e1 = (axis - axis.dot(normal) * normal).normalized(), e2 = normal.cross(e1);
+      grid.near(ps, kFaceRadius, frame_nb);
+      Eigen::Matrix2d C = Eigen::Matrix2d::Zero();
+      Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+      std::vector<Eigen::Vector2d> face;
+      for (int j : frame_nb) {
+        const Vec3 r = P[j] - ps;
+        if (!cell[j] && std::abs(normal.dot(r)) <= kFaceOffset && N[j].dot(normal) >= std::cos(o.cone))
+          face.emplace_back(e1.dot(r), e2.dot(r)), mean += face.back();
+      }
+      if (face.size() >= 10) {
+        mean /= static_cast<double>(face.size());
+        for (const Eigen::Vector2d& f : face) C += (f - mean) * (f - mean).transpose();
+        const Eigen::Vector2d major = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(C).eigenvectors().col(1);
+        axes[0] = (major.x() * e1 + major.y() * e2).normalized();
+      }
+      for (int k = 1; k < 4; ++k) axes.push_back(Eigen::AngleAxisd(M_PI / 4 * k, normal) * axes[0]);
+    }
     // The points within reach (the whole pile, mostly) but the floor's within its noise, which no
     // test reads (the floor is checked as its plane), kept by block with each block's centre
     // about the seed.

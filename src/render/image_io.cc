@@ -102,6 +102,68 @@ void writeDepthPreview(const std::string& path, const Frame& f) {
   write(path, colour);
 }
 
+namespace {
+
+// A label's colour (BGR): hues spaced by the golden angle, so neighbours' colours differ.
+cv::Vec3b hueOf(int k) {
+  cv::Mat hsv(1, 1, CV_8UC3, cv::Scalar(static_cast<int>(std::fmod(k * 137.5, 360.0) / 2), 220, 255)), out;
+  cv::cvtColor(hsv, out, cv::COLOR_HSV2BGR);
+  return out.at<cv::Vec3b>(0, 0);
+}
+
+}  // namespace
+
+void writeSegmentsPicture(const std::string& path, const Frame& view, const std::vector<uint16_t>& segment,
+                          const std::vector<WorldBox>& boxes) {
+  need(view, !view.depth.empty(), "depth");
+  const int w = view.camera.width, h = view.camera.height;
+  if (segment.size() != view.depth.size()) throw std::runtime_error(path + ": a segment label per pixel expected");
+  // The depth, near light and far dark, over the range the segments span (the bin's few centimetres).
+  float lo = 1e9f, hi = 0;
+  for (size_t i = 0; i < segment.size(); ++i)
+    if (segment[i] && view.depth[i] > 0) lo = std::min(lo, view.depth[i]), hi = std::max(hi, view.depth[i]);
+  if (hi <= lo) lo = 0, hi = 1e9f;
+  hi += 0.03f;  // the floor just below the lowest segment stays visible
+  cv::Mat bgr(h, w, CV_8UC3);
+  for (int i = 0; i < w * h; ++i) {
+    const float z = view.depth[static_cast<size_t>(i)];
+    const double shade = z > 0 ? 60 + 170 * std::clamp((hi - z) / (hi - lo), 0.0f, 1.0f) : 0;
+    cv::Vec3b c(static_cast<uint8_t>(shade), static_cast<uint8_t>(shade), static_cast<uint8_t>(shade));
+    const int k = segment[static_cast<size_t>(i)];
+    if (k) {
+      const cv::Vec3b hue = hueOf(k - 1);
+      for (int ch = 0; ch < 3; ++ch) c[ch] = static_cast<uint8_t>(0.4 * c[ch] + 0.6 * hue[ch]);
+      // Its outline: a pixel next to another label.
+      const int u = i % w, v = i / w;
+      const bool edge = (u > 0 && segment[static_cast<size_t>(i - 1)] != k) || (u + 1 < w && segment[static_cast<size_t>(i + 1)] != k) ||
+                        (v > 0 && segment[static_cast<size_t>(i - w)] != k) || (v + 1 < h && segment[static_cast<size_t>(i + w)] != k);
+      if (edge) c = cv::Vec3b(20, 20, 20);
+    }
+    bgr.at<cv::Vec3b>(i) = c;
+  }
+  // The boxes: the outline of each one's projected corners.
+  const int thick = std::max(2, w / 400);
+  for (const WorldBox& b : boxes) {
+    std::vector<cv::Point2f> corners;
+    for (int k = 0; k < 8; ++k) {
+      const Vec3 p = b.T_world_box * Vec3(k & 1 ? b.half.x() : -b.half.x(), k & 2 ? b.half.y() : -b.half.y(), k & 4 ? b.half.z() : -b.half.z());
+      const Vec3 px = view.camera.project(p);
+      if (px.z() <= 0) continue;
+      corners.emplace_back(static_cast<float>(px.x()), static_cast<float>(px.y()));
+    }
+    if (corners.size() < 3) continue;
+    std::vector<cv::Point2f> hull;
+    cv::convexHull(corners, hull);
+    std::vector<cv::Point> outline;
+    for (const cv::Point2f& p : hull) outline.emplace_back(cvRound(p.x), cvRound(p.y));
+    cv::Mat filled = bgr.clone();
+    cv::fillConvexPoly(filled, outline, cv::Scalar(255, 255, 255), cv::LINE_AA);
+    cv::addWeighted(filled, 0.5, bgr, 0.5, 0, bgr);
+    cv::polylines(bgr, outline, true, cv::Scalar(0, 0, 0), thick, cv::LINE_AA);
+  }
+  write(path, bgr);
+}
+
 void writeSegmentationPreview(const std::string& path, const Frame& f) {
   need(f, !f.segmentation.empty(), "segmentation");
   cv::Mat bgr(f.camera.height, f.camera.width, CV_8UC3);
@@ -111,12 +173,8 @@ void writeSegmentationPreview(const std::string& path, const Frame& f) {
     if (label == kSegmentScene) c = cv::Vec3b(60, 60, 60);
     else if (label == kSegmentRobot) c = cv::Vec3b(200, 200, 200);
     else if (label == kSegmentObstacle) c = cv::Vec3b(0, 0, 255);
-    else {
-      // Objects in hues spaced by the golden angle, so neighbours' colours differ.
-      cv::Mat hsv(1, 1, CV_8UC3, cv::Scalar(static_cast<int>(std::fmod((label - kSegmentObject0) * 137.5, 360.0) / 2), 220, 255)), out;
-      cv::cvtColor(hsv, out, cv::COLOR_HSV2BGR);
-      c = out.at<cv::Vec3b>(0, 0);
-    }
+    else
+      c = hueOf(label - kSegmentObject0);  // objects in hues spaced by the golden angle
     bgr.at<cv::Vec3b>(static_cast<int>(i)) = c;
   }
   write(path, bgr);

@@ -23,6 +23,19 @@ void writeDepthPreview(const std::string& path, const Frame& f);
 /// Labels in distinct colours (scene dark grey, robot light grey, objects in hues).
 void writeSegmentationPreview(const std::string& path, const Frame& f);
 
+/// A box in the world (a finger of a grasp): its centre's pose and half sizes.
+struct WorldBox {
+  Pose T_world_box = Pose::Identity();
+  Vec3 half = Vec3::Zero();
+};
+
+/// What a robot made of one view, for a human: the view's depth shaded grey (near light), each
+/// segment (`segment`: per pixel 0 for none, k + 1 for the k-th) in its own hue over it with its
+/// outline, and `boxes` (the chosen grasp's fingers) drawn as their outlines seen by the view's
+/// camera. `view` needs its camera and depth.
+void writeSegmentsPicture(const std::string& path, const Frame& view, const std::vector<uint16_t>& segment,
+                          const std::vector<WorldBox>& boxes);
+
 /// Reads a depth PNG back [m] (row-major, top row first); throws std::runtime_error.
 std::vector<float> readDepthPng(const std::string& path, int* width, int* height);
 

@@ -16,9 +16,11 @@ void RenderOptions::declare(ConfigArchive& a) {
   a.list("keyframes", keyframes, {},
          "stages whose end is rendered as PNG key frames (e.g. perception, close_gripper, place, open_gripper_release; "
          "end: the trial's last state), under results/<name>/renders/trial_<N>/; empty: none");
-  a.list("images", images, {"rgb", "depth", "segmentation"},
-         "the images of a key frame: rgb (<k>_<stage>.png), depth (_depth.png: 16-bit, 0.1 mm units) and segmentation "
-         "(_seg.png: 0 scene, 1 robot, 2+k object k, 255 obstacle)");
+  a.list("images", images, {"rgb", "depth", "segmentation", "segments"},
+         "the images of a key frame: rgb (<k>_<stage>.png), depth (_depth.png: 16-bit, 0.1 mm units), segmentation "
+         "(_seg.png: 0 scene, 1 robot, 2+k object k, 255 obstacle) and segments (_segments.png, for a human: camera mode "
+         "with objects of no model, the robot's last view as perception cut it, each segment in a hue over its depth, and "
+         "the fingers of the grasp it chose; none before the first perception)");
   a.value("video", video, "an MP4 of each rendered trial (H.264 through ffmpeg; simulated time played in real time)");
   a.value("fps", fps, {1, 100}, "1/s", "video frames per simulated second; must divide the 500 Hz control rate");
   a.list("trials", trials, {0, 1e7}, "the trials rendered; empty: every trial");
@@ -56,6 +58,7 @@ TrialRenders::TrialRenders(Renderer& renderer, SimWorld& world, const RenderOpti
   camera_ = renderer_.camera(world_, options_.camera, options_.width, options_.height, file);
   for (const std::string& k : options_.images)
     kinds_ |= k == "rgb" ? kRgb : k == "depth" ? kDepth : k == "segmentation" ? kSegmentation : 0u;
+  segments_ = std::find(options_.images.begin(), options_.images.end(), "segments") != options_.images.end();
   createDirectories(dir_);
   if (options_.video) {
     const double frames_per_period = options_.fps * kControlPeriod;
@@ -82,9 +85,15 @@ void TrialRenders::stageEnded(const std::string& stage) {
   if (std::find(options_.keyframes.begin(), options_.keyframes.end(), stage) != options_.keyframes.end()) keyFrame(stage);
 }
 
+void TrialRenders::setSegments(std::shared_ptr<const Frame> view, std::shared_ptr<const std::vector<uint16_t>> segment,
+                               std::vector<WorldBox> fingers) {
+  view_ = std::move(view), segment_ = std::move(segment), fingers_ = std::move(fingers);
+}
+
 void TrialRenders::keyFrame(const std::string& label) {
-  if (!kinds_) return;
-  const Frame f = renderer_.render(world_, camera_, kinds_);
+  const bool segments = segments_ && view_ && segment_;
+  if (!kinds_ && !segments) return;
+  const Frame f = kinds_ ? renderer_.render(world_, camera_, kinds_) : Frame{};
   char prefix[16];
   std::snprintf(prefix, sizeof prefix, "%02d_", ++count_);
   const std::string base = prefix + label;
@@ -101,6 +110,7 @@ void TrialRenders::keyFrame(const std::string& label) {
     writeSegmentationPng(path("_seg.png"), f);
     if (options_.previews) writeSegmentationPreview(path("_seg_view.png"), f);
   }
+  if (segments) writeSegmentsPicture(path("_segments.png"), *view_, *segment_, fingers_);
 }
 
 std::vector<std::string> TrialRenders::finish() {

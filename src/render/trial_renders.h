@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/config.h"
+#include "render/image_io.h"
 #include "render/renderer.h"
 #include "sim/hardware.h"
 
@@ -25,7 +26,7 @@ struct RenderOptions {
   bool renders(uint64_t t) const;
 
   std::vector<std::string> keyframes;           ///< stage names (and "end"); empty: none
-  std::vector<std::string> images = {"rgb"};    ///< rgb, depth, segmentation
+  std::vector<std::string> images = {"rgb"};    ///< rgb, depth, segmentation, segments
   bool video = false;
   int fps = 25;                                 ///< divides the 500 Hz control rate
   std::vector<int64_t> trials;                  ///< empty: every trial
@@ -46,6 +47,10 @@ class TrialRenders {
   Hardware& wrap(Hardware& inner, std::function<void()> before_step);
   /// A stage ended: a key frame if it is one of options.keyframes.
   void stageEnded(const std::string& stage);
+  /// The image "segments" asks for what the robot made of its last view (writeSegmentsPicture).
+  bool wantsSegments() const { return segments_; }
+  /// That view, its segments and the chosen grasp's fingers (empty: none yet), as they are now.
+  void setSegments(std::shared_ptr<const Frame> view, std::shared_ptr<const std::vector<uint16_t>> segment, std::vector<WorldBox> fingers);
   /// The trial ended: the "end" key frame, the video closed. Returns the files written (relative to dir).
   std::vector<std::string> finish();
 
@@ -59,6 +64,10 @@ class TrialRenders {
   std::string dir_;
   CameraModel camera_;
   unsigned kinds_ = 0;
+  bool segments_ = false;
+  std::shared_ptr<const Frame> view_;
+  std::shared_ptr<const std::vector<uint16_t>> segment_;
+  std::vector<WorldBox> fingers_;
   int count_ = 0;           ///< key frames so far
   long steps_ = 0;
   int steps_per_frame_ = 1;

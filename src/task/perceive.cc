@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "planning/blend.h"
 #include "planning/chomp.h"
+#include "planning/collision.h"
 #include "perception/cell_registration.h"
 #include "perception/segmentation.h"
 #include "planning/time_parameterization.h"
@@ -30,6 +31,50 @@ CellRegistrationOptions registrationOptions(const TrialContext& ctx) {
   return ro;
 }
 
+}  // namespace
+
+void removeRobotPoints(const RobotModel& robot, const VecX& q, double finger_opening, const PerceptionOptions& o, Frame& frame) {
+  constexpr double kPadding = 0.015;  // [m] the depth's noise and the spheres' fit
+  const SphereModel spheres = coverRobot(robot, kPadding);
+  std::vector<Pose> T_link;
+  robot.linkPoses(q, finger_opening, T_link);
+  // The spheres in the world, and the box around them.
+  std::vector<Vec3> centre(spheres.local.size());
+  Vec3 lo = Vec3::Constant(INFINITY), hi = -lo;
+  for (size_t k = 0; k < centre.size(); ++k) {
+    centre[k] = T_link[static_cast<size_t>(spheres.link[k])] * spheres.local[k];
+    lo = lo.cwiseMin(centre[k] - Vec3::Constant(spheres.radius[k])), hi = hi.cwiseMax(centre[k] + Vec3::Constant(spheres.radius[k]));
+  }
+  const Pose T_region_world = o.T_world_crop.inverse();
+  constexpr double kMargin = 0.05;  // [m] beyond the bin's footprint and height
+  // Nothing to do when the robot is nowhere near the region (at home, as it is when it looks).
+  Vec3 region_lo = Vec3::Constant(INFINITY), region_hi = -region_lo;
+  for (int k = 0; k < 8; ++k) {
+    const Vec3 corner = o.T_world_crop * Vec3((k & 1 ? 1 : -1) * (o.crop_half.x() + kMargin), (k & 2 ? 1 : -1) * (o.crop_half.y() + kMargin),
+                                              k & 4 ? o.crop_height + kMargin : -kMargin);
+    region_lo = region_lo.cwiseMin(corner), region_hi = region_hi.cwiseMax(corner);
+  }
+  lo = lo.cwiseMax(region_lo), hi = hi.cwiseMin(region_hi);
+  if ((lo.array() > hi.array()).any()) return;
+  const CameraModel& cam = frame.camera;
+  for (int v = 0; v < cam.height; ++v)
+    for (int u = 0; u < cam.width; ++u) {
+      float& z = frame.depth[static_cast<size_t>(v) * cam.width + u];
+      if (!(z > 0)) continue;
+      const Vec3 p = cam.unproject(u, v, z);
+      if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
+      const Vec3 r = T_region_world * p;
+      if (std::abs(r.x()) > o.crop_half.x() + kMargin || std::abs(r.y()) > o.crop_half.y() + kMargin || r.z() > o.crop_height + kMargin) continue;
+      for (size_t k = 0; k < centre.size(); ++k)
+        if ((p - centre[k]).squaredNorm() <= spheres.radius[k] * spheres.radius[k]) {
+          z = 0;
+          break;
+        }
+    }
+}
+
+namespace {
+
 // Camera mode: a frame of the perception's camera, its extrinsics those the robot holds: the
 // calibration file's, else the mount's in the scene, corrected by the last registration against
 // the cell. The
@@ -44,6 +89,8 @@ bool captureFrame(TrialContext& ctx, Frame& frame, std::string* why, bool for_pe
   if (ctx.faults && for_perception) ctx.faults->onFrame(ctx, frame);
   if (o.calibrated) frame.camera.T_world_camera = o.T_world_camera;  // where calibration says it is
   if (ctx.T_extrinsics_registered) frame.camera.T_world_camera = frame.camera.T_world_camera * *ctx.T_extrinsics_registered;
+  // The robot's own points out (what it measures of itself, not the simulator's truth).
+  if (for_perception && o.crop_half.x() > 0) removeRobotPoints(ctx.robot, ctx.hw.jointPositions(), ctx.hw.gripperOpening(), o, frame);
   return true;
 }
 
@@ -95,6 +142,17 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
     so.region_height = o.crop_height;
     const Segmentation segments = o.segmentation == SegmentationSource::kLabels ? segmentLabels(frame, so) : segmentDepth(frame, so);
     for (const Segment& s : segments.segments) r.detections.push_back({segmentObject(s, o.T_world_crop)});
+    if (ctx.keep_view) {  // for a picture (render.images: segments)
+      auto labels = std::make_shared<std::vector<uint16_t>>(frame.depth.size(), 0);
+      for (size_t k = 0; k < segments.segments.size(); ++k)
+        for (int pixel : segments.segments[k].pixels) (*labels)[static_cast<size_t>(pixel)] = static_cast<uint16_t>(k + 1);
+      Frame view;
+      view.camera = frame.camera;
+      view.depth = frame.depth;
+      ctx.last_view = std::make_shared<const Frame>(std::move(view));
+      ctx.last_segments = std::move(labels);
+      ctx.last_grasp.reset();  // the grasp drawn over a view is one chosen from it
+    }
     // What no segment explains (a patch too small to be an object) is avoided as its columns.
     for (const Segment& s : segments.small)
       for (Obstacle& column : obstaclesOf(segmentObject(s, o.T_world_crop))) {

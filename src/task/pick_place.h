@@ -43,8 +43,14 @@ int objectsInBinTruly(const TrialContext& ctx);
 /// cell's statics), scored for the robot's gripper.
 std::vector<GraspCandidate> graspCandidates(TrialContext& ctx, const ObjectState& object);
 /// A frame of the perception camera, its extrinsics those the robot holds (the calibration's,
-/// corrected by the last registration against the cell); false with `why` when there is none.
+/// corrected by the last registration against the cell), the robot's own points taken out
+/// (removeRobotPoints); false with `why` when there is none.
 bool captureView(TrialContext& ctx, Frame& frame, std::string* why);
+/// The robot's own points taken out of `frame`, as MoveIt's self filter does: a pixel whose point
+/// lies in the region perception looks at (`o`'s crop, with 5 cm around it) and within the robot's
+/// collision spheres padded by 1.5 cm, at joint positions `q` and `finger_opening` per finger (what
+/// it measures of itself), has no depth. An arm left in the bin is then no object and no obstacle.
+void removeRobotPoints(const RobotModel& robot, const VecX& q, double finger_opening, const PerceptionOptions& o, Frame& frame);
 /// Model-free candidates (grasp/cloud_grasps.h) from a fresh view of the perception camera, each
 /// under the perceived object not yet picked that its pads close on, objects in the order of their
 /// best candidate; a candidate closing on no perceived object or on two is dropped. Records stage

@@ -156,6 +156,17 @@ class TrialContext {
   double over_target_turn = 0;       ///< [rad] that plan's place_turn
   std::vector<Pose> failed_grasps;   ///< grasps whose execution failed (not chosen again)
   std::vector<Obstacle> seen_obstacles;  ///< obstacles not part of the cell, as last sensed (planned around)
+  /// Camera mode with objects of no model, when a picture asks for it (keep_view): the last view
+  /// perceived (its camera and depth) and each of its pixels' segment (0: none, k + 1: the k-th).
+  bool keep_view = false;
+  std::shared_ptr<const Frame> last_view;
+  std::shared_ptr<const std::vector<uint16_t>> last_segments;
+  /// The last pick plan executed: the TCP at its grasp and how far it opens each finger (pictures).
+  struct ChosenGrasp {
+    Pose T_world_tcp = Pose::Identity();
+    double opening = 0;  ///< [m] per finger
+  };
+  std::optional<ChosenGrasp> last_grasp;
   /// Camera mode: the last registration against the cell (RegisterCamera), as a correction of the
   /// extrinsics otherwise held (in the camera's frame: it moves with a camera on the arm).
   std::optional<Pose> T_extrinsics_registered;

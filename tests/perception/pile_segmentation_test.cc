@@ -22,6 +22,8 @@
 #include "sim/object_generator.h"
 #include "sim/scene_sampler.h"
 #include "sim/sim_world.h"
+#include "kinematics/ik.h"
+#include "task/pick_place.h"
 
 namespace mm {
 namespace {
@@ -207,6 +209,40 @@ TEST(PileSegmentation, TheLabelsOracleFindsEveryVisibleObjectAndNoFalseSegment) 
   ASSERT_GT(visible, 0);
   EXPECT_EQ(found, visible);
   EXPECT_EQ(s.false_segments, 0);
+}
+
+// The robot's own points (removeRobotPoints, the self filter every camera view goes through): with
+// the hand down in the empty bin, the depth's segmentation makes an object of it; with the robot's
+// points taken out at the joint positions it measures, of nothing.
+TEST(PileSegmentation, AnArmLeftInTheBinIsTakenOutOfItsView) {
+  auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
+  const auto [T_bin, half] = w->site("bin_region");
+  // The TCP 3 cm over the bin floor's centre, pointing down as at home.
+  IkRequest req;
+  req.target = makePose(T_bin * Vec3(0, 0, 0.03), panda().fk(panda().home()).linear());
+  req.seed = panda().home();
+  Rng rng(1);
+  const IkResult ik = makeIkSolver("auto", panda())->solve(req, rng);
+  ASSERT_TRUE(ik.ok()) << ik.reason;
+  w->setArm(ik.q());
+  w->setFingers(0.02);
+  w->updateKinematics();
+  const CameraModel cam = renderer().camera(*w, "overhead_camera", 640, 480, "(test)");
+  Frame frame = renderer().render(*w, cam, kDepth);
+  Rng noise(2);
+  applyDepthNoise(frame, DepthNoise{}, noise);
+  SegmentationOptions o;
+  o.T_world_region = T_bin;
+  o.region_half = half;
+  EXPECT_GE(segmentDepth(frame, o).segments.size(), 1u) << "the hand, seen as an object";
+  PerceptionOptions po;
+  po.T_world_crop = T_bin;
+  po.crop_half = half;
+  po.crop_height = 0.24;
+  removeRobotPoints(panda(), ik.q(), 0.02, po, frame);
+  const Segmentation after = segmentDepth(frame, o);
+  EXPECT_EQ(after.segments.size(), 0u);
+  EXPECT_EQ(after.small.size(), 0u);
 }
 
 // An empty bin seen through the stereo noise, as trials see it: the floor's noise is neither an object nor an

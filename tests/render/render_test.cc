@@ -306,5 +306,40 @@ TEST(Render, ATrialRenderedAgainMatchesItsLineAndWritesItsImages) {
   EXPECT_THAT(fps.out, HasSubstr("render.fps"));
 }
 
+// The picture of what the robot made of its view (render.images: segments): at the first
+// perception its segments in hues, and at the grasp the same view with the chosen grasp's fingers
+// drawn over it, nothing else changed.
+TEST(Render, TheSegmentsPictureShowsTheViewsSegmentsAndThenTheChosenGrasp) {
+  TempDir tmp;
+  const std::string out = (tmp.path() / "run").string();
+  const auto run = runMinimanip("run experiments/clutter_pile.yaml --trials 1 --jobs 1 --out " + out +
+                                " --set progress=none --set tree=experiments/trees/clutter_removal_cloud.xml --set perception.mode=camera"
+                                " --set perception.camera_width=640 --set perception.camera_height=480 --set bt.time_budget=12"
+                                " --set render.keyframes=perception,close_gripper --set render.images=segments");
+  ASSERT_EQ(run.code, 0) << run.out;
+  const fs::path dir = fs::path(out) / "renders/trial_000000";
+  const cv::Mat view = cv::imread((dir / "01_perception_segments.png").string(), cv::IMREAD_COLOR);
+  const cv::Mat grasp = cv::imread((dir / "02_close_gripper_segments.png").string(), cv::IMREAD_COLOR);
+  ASSERT_FALSE(view.empty());
+  ASSERT_FALSE(grasp.empty());
+  EXPECT_EQ(view.cols, 640);  // the perception camera's image
+  EXPECT_EQ(view.rows, 480);
+  EXPECT_FALSE(fs::exists(dir / "01_perception.png"));  // only the images asked for
+  int coloured = 0, changed = 0;
+  cv::Rect where;  // of the pixels that changed
+  for (int i = 0; i < view.rows * view.cols; ++i) {
+    const cv::Vec3b a = view.at<cv::Vec3b>(i), b = grasp.at<cv::Vec3b>(i);
+    coloured += std::max({a[0], a[1], a[2]}) - std::min({a[0], a[1], a[2]}) > 40;
+    if (a == b) continue;
+    const cv::Rect pixel(i % view.cols, i / view.cols, 1, 1);
+    where = changed++ ? (where | pixel) : pixel;
+  }
+  EXPECT_GT(coloured, 300) << "segments in hues";  // 5 to 10 objects, some 800 px at this size
+  EXPECT_GT(changed, 100) << "the fingers drawn";
+  // Only the fingers changed: two pads at most a stroke apart, about 50 px at this size.
+  EXPECT_LT(where.width, 100) << where;
+  EXPECT_LT(where.height, 100) << where;
+}
+
 }  // namespace
 }  // namespace mm
