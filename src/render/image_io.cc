@@ -117,7 +117,8 @@ void writeSegmentsPicture(const std::string& path, const Frame& view, const std:
                           const std::vector<WorldBox>& boxes) {
   need(view, !view.depth.empty(), "depth");
   const int w = view.camera.width, h = view.camera.height;
-  if (segment.size() != view.depth.size()) throw std::runtime_error(path + ": a segment label per pixel expected");
+  if (view.depth.size() != static_cast<size_t>(w) * static_cast<size_t>(h) || segment.size() != view.depth.size())
+    throw std::runtime_error(path + ": a depth and a segment label per pixel expected");
   // The depth, near light and far dark, over the range the segments span (the bin's few centimetres).
   float lo = 1e9f, hi = 0;
   for (size_t i = 0; i < segment.size(); ++i)

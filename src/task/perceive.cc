@@ -77,9 +77,11 @@ namespace {
 
 // Camera mode: a frame of the perception's camera, its extrinsics those the robot holds: the
 // calibration file's, else the mount's in the scene, corrected by the last registration against
-// the cell. The
-// faults that strike frames (a blackout, a dropout) strike those perception reads.
-bool captureFrame(TrialContext& ctx, Frame& frame, std::string* why, bool for_perception) {
+// the cell. The faults that strike frames (a blackout, a dropout) strike those perception reads.
+// `self_filter`: the robot's own points taken out (removeRobotPoints), for the readers that take
+// missing depth for nothing there (the segmentation, the model-free grasps); the known objects'
+// fitter counts missing depth as a blackout, so it reads the view as it is.
+bool captureFrame(TrialContext& ctx, Frame& frame, std::string* why, bool for_perception, bool self_filter) {
   const PerceptionOptions& o = ctx.perception;
   if (ctx.faults) ctx.faults->beforeCapture(ctx, o.camera);
   if (!ctx.hw.capture(o.camera, o.camera_width, o.camera_height, frame, why)) {
@@ -90,13 +92,13 @@ bool captureFrame(TrialContext& ctx, Frame& frame, std::string* why, bool for_pe
   if (o.calibrated) frame.camera.T_world_camera = o.T_world_camera;  // where calibration says it is
   if (ctx.T_extrinsics_registered) frame.camera.T_world_camera = frame.camera.T_world_camera * *ctx.T_extrinsics_registered;
   // The robot's own points out (what it measures of itself, not the simulator's truth).
-  if (for_perception && o.crop_half.x() > 0) removeRobotPoints(ctx.robot, ctx.hw.jointPositions(), ctx.hw.gripperOpening(), o, frame);
+  if (self_filter && o.crop_half.x() > 0) removeRobotPoints(ctx.robot, ctx.hw.jointPositions(), ctx.hw.gripperOpening(), o, frame);
   return true;
 }
 
 }  // namespace
 
-bool captureView(TrialContext& ctx, Frame& frame, std::string* why) { return captureFrame(ctx, frame, why, true); }
+bool captureView(TrialContext& ctx, Frame& frame, std::string* why) { return captureFrame(ctx, frame, why, true, true); }
 
 namespace {
 
@@ -111,7 +113,7 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
   PerceptionResult p;
   Frame frame;
   std::string why;
-  if (!captureFrame(ctx, frame, &why, true)) {
+  if (!captureFrame(ctx, frame, &why, true, o.unknown_objects)) {
     p.reason = why;
     return p;
   }
@@ -151,7 +153,7 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
       view.depth = frame.depth;
       ctx.last_view = std::make_shared<const Frame>(std::move(view));
       ctx.last_segments = std::move(labels);
-      ctx.last_grasp.reset();  // the grasp drawn over a view is one chosen from it
+      ctx.last_grasp.reset();  // the grasp drawn over a view is one chosen after it (from the camera's next capture)
     }
     // What no segment explains (a patch too small to be an object) is avoided as its columns.
     for (const Segment& s : segments.small)
@@ -252,7 +254,7 @@ Failure registerCamera(TrialContext& ctx) {
   Frame frame;
   std::string why;
   CellRegistration r;
-  if (captureFrame(ctx, frame, &why, false)) {
+  if (captureFrame(ctx, frame, &why, false, false)) {
     r = registerCameraToCell(frame, ctx.statics, registrationOptions(ctx));
   } else {
     r.reason = why;

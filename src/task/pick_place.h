@@ -44,7 +44,8 @@ int objectsInBinTruly(const TrialContext& ctx);
 std::vector<GraspCandidate> graspCandidates(TrialContext& ctx, const ObjectState& object);
 /// A frame of the perception camera, its extrinsics those the robot holds (the calibration's,
 /// corrected by the last registration against the cell), the robot's own points taken out
-/// (removeRobotPoints); false with `why` when there is none.
+/// (removeRobotPoints; so are they from the views segmented for objects with no model, not from
+/// those of the known objects' fitter); false with `why` when there is none.
 bool captureView(TrialContext& ctx, Frame& frame, std::string* why);
 /// The robot's own points taken out of `frame`, as MoveIt's self filter does: a pixel whose point
 /// lies in the region perception looks at (`o`'s crop, with 5 cm around it) and within the robot's

@@ -211,9 +211,9 @@ TEST(PileSegmentation, TheLabelsOracleFindsEveryVisibleObjectAndNoFalseSegment) 
   EXPECT_EQ(s.false_segments, 0);
 }
 
-// The robot's own points (removeRobotPoints, the self filter every camera view goes through): with
-// the hand down in the empty bin, the depth's segmentation makes an object of it; with the robot's
-// points taken out at the joint positions it measures, of nothing.
+// The robot's own points (removeRobotPoints, the self filter of the views segmented and of those the
+// model-free grasps read): with the hand down in the empty bin, the depth's segmentation makes an
+// object of it; with the robot's points taken out at the joint positions it measures, of nothing.
 TEST(PileSegmentation, AnArmLeftInTheBinIsTakenOutOfItsView) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   const auto [T_bin, half] = w->site("bin_region");

@@ -315,14 +315,14 @@ TEST(Render, TheSegmentsPictureShowsTheViewsSegmentsAndThenTheChosenGrasp) {
   const auto run = runMinimanip("run experiments/clutter_pile.yaml --trials 1 --jobs 1 --out " + out +
                                 " --set progress=none --set tree=experiments/trees/clutter_removal_cloud.xml --set perception.mode=camera"
                                 " --set perception.camera_width=640 --set perception.camera_height=480 --set bt.time_budget=12"
-                                " --set render.keyframes=perception,close_gripper --set render.images=segments");
+                                " --set render.keyframes=perception,close_gripper --set render.images=segments --set render.width=320 --set render.height=240");
   ASSERT_EQ(run.code, 0) << run.out;
   const fs::path dir = fs::path(out) / "renders/trial_000000";
   const cv::Mat view = cv::imread((dir / "01_perception_segments.png").string(), cv::IMREAD_COLOR);
   const cv::Mat grasp = cv::imread((dir / "02_close_gripper_segments.png").string(), cv::IMREAD_COLOR);
   ASSERT_FALSE(view.empty());
   ASSERT_FALSE(grasp.empty());
-  EXPECT_EQ(view.cols, 640);  // the perception camera's image
+  EXPECT_EQ(view.cols, 640);  // the perception camera's image, not the render's 320 x 240
   EXPECT_EQ(view.rows, 480);
   EXPECT_FALSE(fs::exists(dir / "01_perception.png"));  // only the images asked for
   int coloured = 0, changed = 0;
