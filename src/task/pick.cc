@@ -83,6 +83,7 @@ CloudGraspOptions cloudGraspOptionsFor(const GripperSpec& gripper, const TaskOpt
   co.finger_margin = task.finger_margin;
   co.padding = std::min(task.padding, task.cloud_padding);
   co.seeds = task.cloud_seeds;
+  co.min_bite = task.cloud_bite;
   return co;
 }
 

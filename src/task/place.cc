@@ -37,10 +37,14 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   const Vec3 half = ctx.held_record.half_size;
   const PlanningScene carrying_scene = planningScene(ctx, -1, true);
   auto carrying = makeChecker(o.checker, ctx.robot, carrying_scene, o.padding);
-  // Placing: the held object goes down to the tray with no padding of its own.
+  // Placing: the held object goes down to the tray with no padding of its own. A grasp from the
+  // camera's points was cleared against the bin's floor with cloud_padding (its fingertips may
+  // reach within millimetres of the object's bottom): set down, the same fingers come as near the
+  // tray's floor, so the descent and the retreat from it are checked with that padding too.
+  const double down_padding = ctx.held_record.grasp_type == graspTypeName(GraspType::kCloud) ? std::min(o.padding, o.cloud_padding) : o.padding;
   PlanningScene ps = planningScene(ctx, -1, true);
   ps.attached_padding = -kSupportTolerance;
-  auto descending = makeChecker(o.checker, ctx.robot, ps, o.padding);
+  auto descending = makeChecker(o.checker, ctx.robot, ps, down_padding);
   // TCP poses that put the object at the target, one per symmetry of the box (a cube held on its
   // side is placed on that side) that keeps the hand within 45 deg of pointing down; least wrist
   // turn and tilt first.
@@ -81,7 +85,7 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
       const double top = s.T_world.translation().z() + s.T_world.linear().row(2).cwiseAbs().dot(s.size);
       if (s.type == Obstacle::Type::kBox && top <= low + kSupportTolerance) ps.attached_ignore.push_back(s.name);
     }
-    descending = makeChecker(o.checker, ctx.robot, ps, o.padding);
+    descending = makeChecker(o.checker, ctx.robot, ps, down_padding);
   }
   const Pose T_tcp_now = ctx.robot.fk(q_lift);
   const double yaw_now = yawOf(T_tcp_now.linear());
@@ -167,8 +171,8 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
     // the tight approach is: the fingers rise straight up within millimetres of the neighbours.
     const double let_go = o.tight_margin > 0 ? std::min(o.tight_margin, o.finger_margin) : o.finger_margin;
     const double just = std::min(travel, ctx.out.grasp_opening + let_go);
-    std::vector<std::pair<double, double>> tries{{travel, o.padding}, {just, o.padding}};
-    if (o.tight_margin > 0 && o.tight_margin < o.padding) tries.push_back({just, o.tight_margin});
+    std::vector<std::pair<double, double>> tries{{travel, down_padding}, {just, down_padding}};
+    if (o.tight_margin > 0 && o.tight_margin < down_padding) tries.push_back({just, o.tight_margin});
     for (const auto& [opening, padding] : tries) {
       PlanningScene rs = planningScene(ctx, ctx.held, false);
       rs.finger_opening = opening;

@@ -26,6 +26,9 @@ void TaskOptions::declare(ConfigArchive& a) {
           "cloud grasps: the fingers and the hand inflated by this against the camera's points when a hand is cleared, "
           "and the same padding (at most planning.padding) in the checks of their approach, lift and the move to the "
           "pre-grasp; planning.padding's centimetre fills most gaps of a pile");
+  a.value("cloud_bite", cloud_bite, {0.004, 0.03}, "m",
+          "cloud grasps: the fingertips reach at least this far past the point a hand is built at (a top-down hand on "
+          "an object lying lower than this plus cloud_padding and 2 mm of clearance above the floor has none)");
   a.value("max_candidates", max_grasp_candidates, {1, 64}, "", "grasp candidates tried per object before the pick fails");
   a.value("finger_margin", finger_margin, {0.002, 0.04}, "m",
           "fingers open this much wider than the object's half width before the approach");

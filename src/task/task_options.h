@@ -44,6 +44,7 @@ struct TaskOptions {
   /// the detector clears a hand, and in the checks of those candidates' approach, lift and connect
   /// (the depth's noise; `padding` is free motion's, a centimetre that fills the gaps of a pile)
   double cloud_padding = 0.004;
+  double cloud_bite = 0.012;             ///< [m] cloud grasps: the fingertips at least this far past the seed (GPD's init_bite: 0.01)
   double tight_margin = 0.0;             ///< [m] finger margin and approach padding when nothing fits otherwise (0: never; clutter: 0.004)
   bool weld = false;                     ///< weld-on-grasp (attach plugin) instead of friction
   double drop_distance = 0.03;           ///< [m] object this far from its in-hand pose = dropped
