@@ -40,7 +40,8 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   // Placing: the held object goes down to the tray with no padding of its own. A grasp from the
   // camera's points was cleared against the bin's floor with cloud_padding (its fingertips may
   // reach within millimetres of the object's bottom): set down, the same fingers come as near the
-  // tray's floor, so the descent and the retreat from it are checked with that padding too.
+  // tray's floor, so the descent is checked with that padding too, and the retreat from it when the
+  // planner's fails.
   const double down_padding = ctx.held_record.grasp_type == graspTypeName(GraspType::kCloud) ? std::min(o.padding, o.cloud_padding) : o.padding;
   PlanningScene ps = planningScene(ctx, -1, true);
   ps.attached_padding = -kSupportTolerance;
@@ -171,7 +172,8 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
     // the tight approach is: the fingers rise straight up within millimetres of the neighbours.
     const double let_go = o.tight_margin > 0 ? std::min(o.tight_margin, o.finger_margin) : o.finger_margin;
     const double just = std::min(travel, ctx.out.grasp_opening + let_go);
-    std::vector<std::pair<double, double>> tries{{travel, down_padding}, {just, down_padding}};
+    std::vector<std::pair<double, double>> tries{{travel, o.padding}, {just, o.padding}};
+    if (down_padding < o.padding) tries.push_back({just, down_padding});  // the fingertips near the tray's floor
     if (o.tight_margin > 0 && o.tight_margin < down_padding) tries.push_back({just, o.tight_margin});
     for (const auto& [opening, padding] : tries) {
       PlanningScene rs = planningScene(ctx, ctx.held, false);
