@@ -209,6 +209,60 @@ TEST(CloudGrasps, TheSameViewAndSeedGiveTheSameCandidates) {
   EXPECT_NE(ra.candidates.front().T_world_tcp.matrix(), rc.candidates.front().T_world_tcp.matrix()) << "other seeds, other samples";
 }
 
+// A bar lying 16 mm tall alone in the bin, in the stereo noise. A top-down hand needs the bar's
+// top at least grasp.cloud_bite (the fingertips past the seed) plus grasp.cloud_padding plus 2 mm
+// above the floor: the defaults (12 mm, 4 mm: 18 mm) find no hand on it, the clutter experiments'
+// (8 mm, 2 mm: 14 mm) find ones that close across it with the fingertips above the floor.
+// (Measured: at 15 mm neither finds one. The pads' contact test wants four of its 3 x 6 cells on
+// each side, and a bar's top face seen from above fills one row of three; the noise fills a
+// second at some depths, not at every height.)
+TEST(CloudGrasps, ABarLying16MmTallIsReachedWithTheClutterExperimentsBiteAndPadding) {
+  testing_cli::TempDir dir;
+  const std::string catalogue = (dir.path() / "bar.yaml").string();
+  std::ofstream(catalogue) << "kinds:\n  bar:\n    shape: box\n    size: [0.07, 0.022, 0.016]\n    mass: 0.03\n";
+  auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
+  const auto [T_bin, half] = w->site("bin_region");
+  SpawnOptions so;
+  so.catalogue = catalogue;
+  so.kinds = {"bar"};
+  so.count_min = so.count_max = 1;
+  so.resolve(catalogue);
+  Rng rng = Rng::stream(5, 0, Purpose::kScene);
+  const SpawnResult spawned = spawnObjects(*w, panda(), T_bin, half, rng, so);
+  ASSERT_TRUE(spawned.ok) << spawned.reason;
+  w->updateKinematics();
+  const ObjectState bar = w->object(spawned.active.at(0));
+  const double floor_z = T_bin.translation().z();
+  ASSERT_NEAR(bar.T_world_object.translation().z() - floor_z, 0.008, 0.001) << "lying on its widest face";
+  Frame frame = renderer().render(*w, renderer().camera(*w, "overhead_camera", 1280, 960, "(test)"), kDepth);
+  Rng noise = Rng::stream(5, 0, Purpose::kCamera);
+  applyDepthNoise(frame, DepthNoise{}, noise);
+  auto detect = [&](double bite, double padding) {
+    TaskOptions task;
+    task.cloud_bite = bite, task.cloud_padding = padding;
+    PerceptionOptions perception;
+    perception.T_world_crop = T_bin, perception.crop_half = half, perception.crop_height = 0.15;
+    const CloudGraspOptions o = cloudGraspOptionsFor(panda().spec().gripper, task, perception);
+    Rng g = Rng::stream(5, 0, Purpose::kGrasp);
+    return std::make_pair(o, cloudGrasps(frame, o, Vec3::UnitX(), g));
+  };
+  const TaskOptions defaults;
+  const auto [o_default, by_default] = detect(defaults.cloud_bite, defaults.cloud_padding);
+  EXPECT_TRUE(by_default.candidates.empty()) << by_default.candidates.size() << " candidates";
+  EXPECT_GT(by_default.too_low, 0);
+  const auto [o, res] = detect(0.008, 0.002);
+  ASSERT_FALSE(res.candidates.empty()) << "too low " << res.too_low << ", on the floor or a wall " << res.on_cell;
+  for (size_t k = 0; k < std::min<size_t>(5, res.candidates.size()); ++k) {
+    const GraspCandidate& g = res.candidates[k];
+    EXPECT_EQ(objectBetweenPads(g, {bar}, o), 0) << k;
+    EXPECT_LT(g.width, 0.03) << k << ": across the bar";
+    for (int side = -1; side <= 1; side += 2) {
+      const Vec3 tip = g.T_world_tcp * Vec3(0, side * (g.width / 2 + o.finger_margin), o.pad_z_max);
+      EXPECT_GT(tip.z(), floor_z) << k;
+    }
+  }
+}
+
 TEST(CloudGrasps, APieceBoxHoldsThePieceAndHugsItCloserThanTheObjectsAxes) {
   // A thin bar turned 30 degrees about z in its object's frame: its box along the object's axes is
   // far larger than along its own.
