@@ -489,6 +489,7 @@ class ComputePlacePosition final : public TaskAction {
     std::stable_sort(cells.begin(), cells.end(), [](const auto& a, const auto& b) { return a.first < b.first - 1e-12; });
     Pose T = env_.T_world_place_target;
     T.translation() += cells[k].second;
+    c.place_slots.push_back(T.translation());
     output("place_pose", toAny(T));
     return NodeStatus::kSuccess;
   }

@@ -76,7 +76,7 @@ void TrialRecord::describe(RecordArchive& a) {
     PickRecord& k = o.picks[i];
     p.field("object", k.object, "", "object index (object_<k>)");
     p.field("at_target", k.at_target, "", "let go of over its target by a place");
-    p.field("placed", k.placed, "", "evaluated within the tolerances");
+    p.field("placed", k.placed, "", "evaluated within the tolerances (an object with no model set down at a slot of the place grid: in that slot, at rest)");
     p.field("position_error", k.position_error, "m", "horizontal");
     p.field("orientation_error", k.orientation_error, "rad", "about its symmetry (from the target as turned: place_turn; -1: no model, no target orientation)");
     p.field("place_turn", k.place_turn, "rad",
@@ -109,7 +109,7 @@ void TrialRecord::describe(RecordArchive& a) {
             "there), dropped, let_go_elsewhere (let go of away from its place target), halted (the closing stopped by the tree), held_at_end");
   }, "every closing of the fingers on a chosen grasp candidate (the clutter-removal protocol's attempt; pushes are not attempts), in order");
   long placed = std::count_if(o.picks.begin(), o.picks.end(), [](const PickRecord& p) { return p.placed; });
-  a.field("objects_placed", placed, "", "picks placed within the tolerances");
+  a.field("objects_placed", placed, "", "picks placed within the tolerances (with no model, at a slot: in it)");
   a.field("objects_left_in_bin", o.objects_left_in_bin, "", "at the end, as the bin's sensor sees it");
   size_t n_left = o.left.size();
   a.list("objects_left", n_left, [&](size_t i, RecordArchive& l) {

@@ -40,10 +40,11 @@ void finishTrial(TrialContext& ctx, bool tree_succeeded) {
   // An object the robot had no model of (camera mode, segmented) was placed as what it saw: the
   // columns under its points, whose middle is not the object's origin and whose axes are not its
   // own. Where it came to rest on the tray is judged; its orientation and height have no target
-  // (its orientation error: -1), nor its origin one to 2 cm. It is judged as the clutter-removal
-  // protocol judges a grasp (released in the tray), in its own slot of the place grid: its frame's
-  // origin (its bounding box's centre) within half the pitch of the slot's centre along x and y (a
-  // grid of one slot: the position tolerance, as a known object).
+  // (its orientation error: -1), nor its origin one to 2 cm. Set down at a slot of the place grid
+  // (ComputePlacePosition), it is judged as the clutter-removal protocol judges a grasp (released in
+  // the tray), in that slot: its frame's origin (its bounding box's centre) within half the pitch of
+  // the slot's centre along x and y. Elsewhere (a fixed target, a grid of one slot): the position
+  // tolerance, as a known object.
   const bool no_model = segmentedObjects(ctx.perception);
   if (no_model) out.place_orientation_error = -1;
   const double slot_half = ctx.options.place_rows * ctx.options.place_columns > 1 ? ctx.options.place_pitch / 2 : 0.0;
@@ -61,7 +62,9 @@ void finishTrial(TrialContext& ctx, bool tree_succeeded) {
     p.orientation_error = objectSymmetricAngle(o.T_world_object.linear(), p.T_world_target.linear(), o.shape, o.half_size);
     const double rest_error = std::abs(pos.z() - goal.z());
     const double speed = hw.objectVelocity(p.object).norm();
-    const bool by_slot = no_model && slot_half > 0;
+    const bool by_slot = no_model && slot_half > 0 && std::any_of(ctx.place_slots.begin(), ctx.place_slots.end(), [&](const Vec3& s) {
+                           return (s - goal).head<2>().norm() < 1e-6;
+                         });
     if (by_slot && std::max(std::abs(p.offset.x()), std::abs(p.offset.y())) > slot_half)
       p.reason = "object " + std::to_string(p.position_error * 1000) + " mm from the place target, out of its slot (" +
                  std::to_string(slot_half * 1000) + " mm each way)";

@@ -212,7 +212,7 @@ TEST(CloudGrasps, TheSameViewAndSeedGiveTheSameCandidates) {
 // A bar lying 16 mm tall alone in the bin, in the stereo noise. A top-down hand needs the bar's
 // top at least grasp.cloud_bite (the fingertips past the seed) plus grasp.cloud_padding plus 2 mm
 // above the floor: the defaults (12 mm, 4 mm: 18 mm) find no hand on it, the clutter experiments'
-// (8 mm, 2 mm: 14 mm) find ones that close across it with the fingertips above the floor.
+// (8 mm, 2 mm: 12 mm) find ones that close across it with the fingertips above the floor.
 // (Measured: at 15 mm neither finds one. The pads' contact test wants four of its 3 x 6 cells on
 // each side, and a bar's top face seen from above fills one row of three; the noise fills a
 // second at some depths, not at every height.)
