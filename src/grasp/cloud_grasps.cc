@@ -10,7 +10,6 @@
 #include <Eigen/Eigenvalues>
 
 namespace mm {
-
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -22,31 +21,49 @@ int64_t cellKey(const Eigen::Vector3i& c) {
 }
 
 // Points by the cube of side `cell` they fall in: neighbours within a radius in a few lookups.
+// The cells over the points' bounding box, each cell's points in the cloud's order.
 class Grid {
  public:
   Grid(const std::vector<Vec3>& points, double cell) : points_(points), cell_(cell) {
-    for (size_t i = 0; i < points.size(); ++i) cells_[key(cellOf(points[i]))].push_back(static_cast<int>(i));
+    if (points.empty()) return;
+    lo_ = hi_ = cellOf(points[0]);
+    std::vector<int> of(points.size());
+    for (const Vec3& p : points) {
+      const Eigen::Vector3i c = cellOf(p);
+      lo_ = lo_.cwiseMin(c), hi_ = hi_.cwiseMax(c);
+    }
+    dims_ = hi_ - lo_ + Eigen::Vector3i::Ones();
+    start_.assign(static_cast<size_t>(dims_.x()) * dims_.y() * dims_.z() + 1, 0);
+    for (size_t i = 0; i < points.size(); ++i) ++start_[(of[i] = flat(cellOf(points[i]))) + 1];
+    for (size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+    index_.resize(points.size());
+    std::vector<int> fill(start_.begin(), start_.end() - 1);
+    for (size_t i = 0; i < points.size(); ++i) index_[fill[of[i]]++] = static_cast<int>(i);
   }
-  /// Indices of the points within `r` of `p`, in the grid's order (the same for the same cloud).
+  /// Indices of the points within `r` of `p`, cell by cell (x, then y, then z), each cell's in
+  /// the cloud's order (the same for the same cloud).
   void near(const Vec3& p, double r, std::vector<int>& out) const {
     out.clear();
-    const Eigen::Vector3i lo = cellOf(p - Vec3::Constant(r)), hi = cellOf(p + Vec3::Constant(r));
-    for (int x = lo.x(); x <= hi.x(); ++x)
-      for (int y = lo.y(); y <= hi.y(); ++y)
-        for (int z = lo.z(); z <= hi.z(); ++z) {
-          const auto it = cells_.find(key({x, y, z}));
-          if (it == cells_.end()) continue;
-          for (int i : it->second)
+    if (points_.empty()) return;
+    const Eigen::Vector3i a = cellOf(p - Vec3::Constant(r)).cwiseMax(lo_), b = cellOf(p + Vec3::Constant(r)).cwiseMin(hi_);
+    for (int x = a.x(); x <= b.x(); ++x)
+      for (int y = a.y(); y <= b.y(); ++y)
+        for (int z = a.z(); z <= b.z(); ++z) {
+          const int c = flat({x, y, z});
+          for (int k = start_[c]; k < start_[c + 1]; ++k) {
+            const int i = index_[k];
             if ((points_[i] - p).squaredNorm() <= r * r) out.push_back(i);
+          }
         }
   }
 
  private:
   Eigen::Vector3i cellOf(const Vec3& p) const { return (p / cell_).array().floor().cast<int>(); }
-  static int64_t key(const Eigen::Vector3i& c) { return cellKey(c); }
+  int flat(const Eigen::Vector3i& c) const { return ((c.x() - lo_.x()) * dims_.y() + (c.y() - lo_.y())) * dims_.z() + (c.z() - lo_.z()); }
   const std::vector<Vec3>& points_;
   double cell_;
-  std::unordered_map<int64_t, std::vector<int>> cells_;
+  Eigen::Vector3i lo_, hi_, dims_;
+  std::vector<int> start_, index_;  // each cell's first place in index_; the points by cell
 };
 
 // The points at [first, last) of a list of a cloud's indices, all within `radius` of `centre`.
@@ -54,6 +71,7 @@ struct Block {
   Vec3 centre;
   double radius;
   size_t first, last;
+  Vec3 half;  // the half sizes of the points' bounding box about `centre`
 };
 
 enum CellPart : char { kNotCell = 0, kFloor = 1, kWall = 2 };
@@ -61,7 +79,7 @@ enum CellPart : char { kNotCell = 0, kFloor = 1, kWall = 2 };
 // A point in the hand's frame: x across the pads, y the closing direction, z the approach.
 struct Local {
   Vec3 p;
-  int index;
+  char part;  // CellPart
 };
 
 }  // namespace
@@ -88,8 +106,28 @@ PointCloud cloudFromDepth(const Frame& frame, const CloudGraspOptions& o) {
   std::unordered_map<int64_t, int> voxel_of;
   std::vector<Vec3> sum;
   std::vector<int> count;
-  for (int v = 0; v < cam.height; ++v)
-    for (int u = 0; u < cam.width; ++u) {
+  // Only the pixels whose rays can meet the region: the bounding rectangle of its corners'
+  // projections, a pixel wider (the whole image if a corner is behind the camera).
+  int u0 = 0, v0 = 0, u1 = cam.width - 1, v1 = cam.height - 1;
+  {
+    double ulo = INFINITY, uhi = -INFINITY, vlo = INFINITY, vhi = -INFINITY;
+    bool behind = false;
+    for (double sx : {-hx, hx})
+      for (double sy : {-hy, hy})
+        for (double sz : {-0.01, o.region_height}) {
+          const Vec3 uvz = cam.project(o.T_world_region * Vec3(sx, sy, sz));
+          behind |= !(uvz.z() > 0);
+          ulo = std::min(ulo, uvz.x()), uhi = std::max(uhi, uvz.x()), vlo = std::min(vlo, uvz.y()), vhi = std::max(vhi, uvz.y());
+        }
+    if (!behind) {
+      u0 = static_cast<int>(std::clamp(std::floor(ulo) - 1, 0.0, cam.width - 1.0));
+      u1 = static_cast<int>(std::clamp(std::ceil(uhi) + 1, 0.0, cam.width - 1.0));
+      v0 = static_cast<int>(std::clamp(std::floor(vlo) - 1, 0.0, cam.height - 1.0));
+      v1 = static_cast<int>(std::clamp(std::ceil(vhi) + 1, 0.0, cam.height - 1.0));
+    }
+  }
+  for (int v = v0; v <= v1; ++v)
+    for (int u = u0; u <= u1; ++u) {
       const float z = frame.depth[static_cast<size_t>(v) * cam.width + u];
       if (!(z > 0)) continue;
       const Vec3 p = cam.unproject(u, v, z), q = T_region_world * p;
@@ -167,7 +205,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
       size_t e = k;
       Vec3 lo = P[tested[k]], hi = lo;
       for (; e < keyed.size() && keyed[e].first == keyed[k].first; ++e) lo = lo.cwiseMin(P[tested[e]]), hi = hi.cwiseMax(P[tested[e]]);
-      Block b{(lo + hi) / 2, 0.0, k, e};
+      Block b{(lo + hi) / 2, 0.0, k, e, (hi - lo) / 2};
       for (size_t j = k; j < e; ++j) b.radius = std::max(b.radius, (P[tested[j]] - b.centre).norm());
       all_blocks.push_back(b);
       k = e;
@@ -199,10 +237,13 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   const double box_y = half_span + std::max(o.hand_half_width + o.padding, half_span + std::max(o.padding, 0.02)) + 1e-9;
   const double box_z_lo = d_first + std::min({o.pad_z_min, -o.hand_back - o.approach_clear, -o.hand_back - o.hand_length - o.approach_clear}) - 1e-9;
   const double box_z_hi = d_last + std::max(o.pad_z_max, -o.hand_back) + o.padding + 1e-9;
+  // Along the approach, the pads' span over all depths.
+  const double pads_z_lo = d_first + o.pad_z_min - 1e-9, pads_z_hi = d_last + o.pad_z_max + 1e-9;
   std::vector<int> near, frame_nb;
   std::vector<Block> blocks;
   std::vector<double> rx, ry, rz, lx, ly, lz;
-  std::vector<unsigned char> inside;
+  std::vector<int> obstacle_list, pad_list;  // indices into `near`
+  std::vector<unsigned char> near_on_plane, near_floor;  // of the points of `near`
   std::vector<Local> obstacles, pads;
   std::vector<std::pair<double, bool>> ys;
   std::vector<GraspCandidate> found;
@@ -253,13 +294,17 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
       const size_t first = near.size();
       for (size_t k = b.first; k < b.last; ++k)
         if ((P[tested[k]] - ps).squaredNorm() <= reach * reach) near.push_back(tested[k]);
-      if (near.size() > first) blocks.push_back({b.centre - ps, b.radius, first, near.size()});
+      if (near.size() > first) blocks.push_back({b.centre - ps, b.radius, first, near.size(), b.half});
     }
-    // Their offsets from the seed, a coordinate to an array.
+    // Their offsets from the seed, a coordinate to an array, and what they are of the cell.
     for (auto* r : {&rx, &ry, &rz}) r->resize(near.size());
+    near_on_plane.resize(near.size());
+    near_floor.resize(near.size());
     for (size_t k = 0; k < near.size(); ++k) {
       const Vec3 r = P[near[k]] - ps;
       rx[k] = r.x(), ry[k] = r.y(), rz[k] = r.z();
+      near_on_plane[k] = on_plane[near[k]];
+      near_floor[k] = cell[near[k]] == kFloor;
     }
     for (const Vec3& ax : axes) {
       const Vec3 binormal = ax.cross(normal).normalized();
@@ -290,42 +335,51 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
         Mat3 R;
         R << x, y, z;
         // The points in the hand's frame inside the box its fingers, body and approach can reach
-        // at any depth; a block whose ball misses the box is skipped whole.
+        // at any depth; a block whose bounding box (or ball) misses the box is skipped whole.
         for (auto* l : {&lx, &ly, &lz}) l->resize(near.size());
-        inside.assign(near.size(), 0);
+        // Inside the box, the obstacles (but the floor within its noise, checked as the plane) and
+        // the points that may lie between the pads at some depth (the contacts; not the floor's),
+        // each list in the order of `near` (blocks come in its order), built without a branch.
+        obstacle_list.resize(near.size());
+        pad_list.resize(near.size());
+        size_t n_obstacles = 0, n_pads = 0;
         for (const Block& b : blocks) {
-          const double bx = x.dot(b.centre), by = y.dot(b.centre), bz = z.dot(b.centre), r = b.radius + 1e-9;
-          if (std::abs(bx) > box_x + r || std::abs(by) > box_y + r || bz < box_z_lo - r || bz > box_z_hi + r) continue;
+          // The block's reach along each axis: its bounding box's (its ball's, if less).
+          const double bx = x.dot(b.centre), by = y.dot(b.centre), bz = z.dot(b.centre);
+          const double sx = std::min(b.radius, x.cwiseAbs().dot(b.half)) + 1e-9, sy = std::min(b.radius, y.cwiseAbs().dot(b.half)) + 1e-9,
+                       sz = std::min(b.radius, z.cwiseAbs().dot(b.half)) + 1e-9;
+          if (std::abs(bx) > box_x + sx || std::abs(by) > box_y + sy || bz < box_z_lo - sz || bz > box_z_hi + sz) continue;
           for (size_t k = b.first; k < b.last; ++k) {
-            lx[k] = x.x() * rx[k] + x.y() * ry[k] + x.z() * rz[k];
-            ly[k] = y.x() * rx[k] + y.y() * ry[k] + y.z() * rz[k];
-            lz[k] = z.x() * rx[k] + z.y() * ry[k] + z.z() * rz[k];
-            inside[k] = (std::abs(lx[k]) <= box_x) & (std::abs(ly[k]) <= box_y) & (lz[k] >= box_z_lo) & (lz[k] <= box_z_hi);
+            const double px = x.x() * rx[k] + x.y() * ry[k] + x.z() * rz[k];
+            const double py = y.x() * rx[k] + y.y() * ry[k] + y.z() * rz[k];
+            const double pz = z.x() * rx[k] + z.y() * ry[k] + z.z() * rz[k];
+            lx[k] = px, ly[k] = py, lz[k] = pz;
+            const bool inside = (std::abs(px) <= box_x) & (std::abs(py) <= box_y) & (pz >= box_z_lo) & (pz <= box_z_hi);
+            obstacle_list[n_obstacles] = pad_list[n_pads] = static_cast<int>(k);
+            n_obstacles += inside & !near_on_plane[k];
+            n_pads += inside & (pz >= pads_z_lo) & (pz <= pads_z_hi) & (std::abs(px) <= o.pad_half_width) & (std::abs(py) <= half_span) & !near_floor[k];
           }
         }
-        // Those that may lie between the pads (ys, the contacts), by depth along the approach; the
-        // obstacles (but the floor within its noise, checked as the plane) once a depth needs them.
+        obstacle_list.resize(n_obstacles);
+        pad_list.resize(n_pads);
         pads.clear();
-        for (size_t k = 0; k < near.size(); ++k)
-          if (inside[k] && cell[near[k]] != kFloor && std::abs(lx[k]) <= o.pad_half_width && std::abs(ly[k]) <= half_span)
-            pads.push_back({Vec3(lx[k], ly[k], lz[k]), near[k]});
-        std::stable_sort(pads.begin(), pads.end(), [](const Local& a, const Local& b) { return a.p.z() < b.p.z(); });
+        for (const int k : pad_list) pads.push_back({Vec3(lx[k], ly[k], lz[k]), cell[near[k]]});
+        // Across the pads, a wall's point after an object's at the same y: each depth's run along y
+        // (ys) is then read in order, with no sort of its own.
+        std::sort(pads.begin(), pads.end(), [](const Local& a, const Local& b) {
+          return a.p.y() < b.p.y() || (a.p.y() == b.p.y() && (a.part == kWall) < (b.part == kWall));
+        });
         obstacles.clear();
         bool have_obstacles = false;
         auto obstaclesOf = [&]() -> const std::vector<Local>& {
           if (!have_obstacles)
-            for (size_t k = 0; k < near.size(); ++k)
-              if (inside[k] && !on_plane[near[k]]) obstacles.push_back({Vec3(lx[k], ly[k], lz[k]), near[k]});
+            for (const int k : obstacle_list) obstacles.push_back({Vec3(lx[k], ly[k], lz[k]), cell[near[k]]});
           have_obstacles = true;
           return obstacles;
         };
-        auto padsAt = [&](double d) {  // the pads' span along the approach at depth d (a superset: the tests stay exact)
-          const auto first = std::lower_bound(pads.begin(), pads.end(), d + o.pad_z_min - 1e-9, [](const Local& l, double v) { return l.p.z() < v; });
-          const auto last = std::upper_bound(first, pads.end(), d + o.pad_z_max + 1e-9, [](double v, const Local& l) { return v < l.p.z(); });
-          return std::make_pair(first, last);
-        };
         // Push the hand forward: the TCP at depth d along z from the seed. The deepest hand whose
         // straight approach is clear, with enough points between the pads, is kept.
+
         bool have = false;
         GraspCandidate best;
         int best_contacts = 0, best_points = 0;
@@ -333,15 +387,12 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
         enum { kNone, kOnCell, kFingers, kHand, kWide, kLow, kSparse, kAntipodal } why = kNone;
         for (double d = d_first; d <= d_last; d += o.depth_step) {
           // Between the pads: the run of points along y around the seed, split by a gap a finger fits in.
-          const auto [pads_first, pads_last] = padsAt(d);
-          ys.clear();  // y, a cell point
-          for (auto it = pads_first; it != pads_last; ++it) {
-            const Local& l = *it;
+          ys.clear();  // y, a wall's point; in order
+          for (const Local& l : pads) {
             const double zz = l.p.z() - d;
             if (zz >= o.pad_z_min && zz <= o.pad_z_max && std::abs(l.p.y()) <= o.hand_opening / 2 + o.finger_thickness)
-              ys.emplace_back(l.p.y(), cell[l.index] == kWall);
+              ys.emplace_back(l.p.y(), l.part == kWall);
           }
-          std::sort(ys.begin(), ys.end());
           double lo = 0, hi = 0;
           bool on_cell = false;
           for (const auto& [yy, is_cell] : ys)  // upwards from the seed
@@ -390,7 +441,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
               break;
             }
             if (std::abs(l.p.x()) <= o.pad_half_width && zz >= o.pad_z_min && zz <= o.pad_z_max) {
-              if (ay < open) between += cell[l.index] != kFloor;
+              if (ay < open) between += l.part != kFloor;
               else clear = std::min(clear, ay - open - o.finger_thickness);
             }
           }
@@ -410,8 +461,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
           constexpr int kNx = 3, kNz = 6;
           double ext[2][kNx][kNz];
           bool filled[2][kNx][kNz] = {};
-          for (auto it = pads_first; it != pads_last; ++it) {
-            const Local& l = *it;
+          for (const Local& l : pads) {
             const double zz = l.p.z() - d;
             if (zz < o.pad_z_min || zz > o.pad_z_max || l.p.y() < lo || l.p.y() > hi) continue;
             const int ix = std::clamp(static_cast<int>((l.p.x() + o.pad_half_width) / (2 * o.pad_half_width) * kNx), 0, kNx - 1);
