@@ -365,6 +365,7 @@ std::string runCampaign(const Experiment& e, const CampaignOptions& co) {
         r.trial = w.trial;
         r.seed = e.seed;
         r.hardware = e.hardware;
+        r.oracle = oracleOf(e);
         r.attempts = w.attempt;
         r.o.failure_stage = "worker";
         r.o.failure_kind = w.watchdog_killed ? FailureKind::kHang : FailureKind::kCrash;

@@ -201,4 +201,8 @@ bool needsCamera(const Experiment& e, const bt::TreeDocument& tree) {
 
 bool needsCamera(const Experiment& e) { return needsCamera(e, loadTree(e)); }
 
+std::string oracleOf(const Experiment& e) {
+  return e.perception.mode == PerceptionMode::kCamera && e.perception.segmentation == SegmentationSource::kLabels ? "segmentation" : "";
+}
+
 }  // namespace mm

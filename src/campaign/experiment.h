@@ -86,6 +86,11 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
 bool needsCamera(const Experiment& e);
 bool needsCamera(const Experiment& e, const bt::TreeDocument& tree);
 
+/// What the trials are given that no real cell has, for every trial record to say: empty, or
+/// "segmentation" (camera mode's points cut by the renderer's per-object labels,
+/// perception.segmentation: labels).
+std::string oracleOf(const Experiment& e);
+
 /// A sweep's cells: every combination of its factors' values (the first factor varies slowest),
 /// each as the "key=value" settings that make it.
 std::vector<std::vector<std::string>> sweepCells(const std::vector<ParamSet::Sweep>& sweep);

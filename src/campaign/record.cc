@@ -20,6 +20,9 @@ void TrialRecord::describe(RecordArchive& a) {
   a.field("trial", trial, "", "trial index (its random streams derive from (seed, trial, purpose))");
   a.field("seed", seed, "", "campaign seed");
   a.field("hardware", hardware, "", "mujoco or mock");
+  a.field("oracle", oracle, "",
+          "what the robot was given that no real cell has: null for nothing; segmentation (camera mode's points cut into objects by the "
+          "renderer's per-object labels, perception.segmentation: labels)");
   a.field("attempts", attempts, "", "worker processes the trial took: 2 when the first died or hung and a fresh one ran it again");
   a.field("success", o.success, "", "the tree succeeded, every object let go of rests at its target, nothing is left in the hand");
   a.field("failure_stage", o.failure_stage, "", "the stage that failed (null on success)");

@@ -36,13 +36,14 @@ class RecordArchive {
   virtual bool reading() const { return false; }
 };
 
-constexpr int kTrialSchema = 12;  // 3: attempts, failure kinds crash and hang; 4: picks' offset; 5: forces, contacts; 6: picks' first_pass; 7: detections; 8: grasp selections, picks' grasp type and deviation; 9: ik_solver; 10: grasp attempts, object grades; 11: picks' place_turn; 12: grasps' tried[].turned
+constexpr int kTrialSchema = 13;  // 3: attempts, failure kinds crash and hang; 4: picks' offset; 5: forces, contacts; 6: picks' first_pass; 7: detections; 8: grasp selections, picks' grasp type and deviation; 9: ik_solver; 10: grasp attempts, object grades; 11: picks' place_turn; 12: grasps' tried[].turned; 13: oracle
 
 /// One trial as trials.jsonl holds it.
 struct TrialRecord {
   int schema = kTrialSchema;
   unsigned long trial = 0, seed = 0;
   std::string hardware;
+  std::string oracle;      ///< what the trial was given that no real cell has (oracleOf); empty: nothing
   int objects_in_bin = 0;  ///< spawned
   int spawn_attempts = 0;
   std::vector<std::string> object_grades;  ///< generated objects: each one's shape grade, by index

@@ -43,6 +43,7 @@ TrialRecord makeRecord(const Experiment& e, uint64_t trial, const SpawnResult& s
   r.trial = trial;
   r.seed = e.seed;
   r.hardware = e.hardware;
+  r.oracle = oracleOf(e);
   r.objects_in_bin = spawn.ok ? static_cast<int>(spawn.active.size()) : 0;  // a failed spawn put no object in play
   r.spawn_attempts = spawn.attempts;
   if (spawn.ok) r.object_grades = spawn.grades;

@@ -32,6 +32,7 @@ TEST(Records, TrialLinesReadBackAndTheSummaryIsRecomputedFromThem) {
   for (std::string line; std::getline(in, line);) {
     TrialRecord r = fromJsonLine(line, "trials.jsonl:" + std::to_string(++n));
     EXPECT_EQ(toJsonLine(r), line);
+    EXPECT_TRUE(nlohmann::json::parse(line).at("oracle").is_null()) << "nothing given that a real cell has not";
     records.push_back(std::move(r));
   }
   ASSERT_EQ(records.size(), 4u);
@@ -43,6 +44,25 @@ TEST(Records, TrialLinesReadBackAndTheSummaryIsRecomputedFromThem) {
                         "throughput_per_hour", "mean_time_breakdown", "place_position_error_mm", "objects_placed",
                         "objects_left_in_bin", "bins_cleared", "failure_stages"})
     EXPECT_EQ(written[k], recomputed[k]) << k;
+  fs::remove_all(dir);
+}
+
+// A run given what no real cell has says so in every trial record, not only in its
+// config.resolved.yaml: camera mode's points cut by the renderer's labels.
+TEST(Records, AnOracleRunSaysSoInEveryRecord) {
+  const fs::path dir = fs::temp_directory_path() / ("mm_records_oracle_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  const std::string cmd = std::string(MINIMANIP_BINARY) + " run experiments/clutter_pile.yaml --trials 2 --only 0 --set progress=none " +
+                          "--set tree=experiments/trees/clutter_removal_cloud.xml --set perception.mode=camera " +
+                          "--set perception.segmentation=labels --out " + dir.string() + " > /dev/null 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  std::ifstream in(dir / "trials.jsonl");
+  int n = 0;
+  for (std::string line; std::getline(in, line); ++n) {
+    EXPECT_EQ(nlohmann::json::parse(line).at("oracle"), "segmentation");
+    EXPECT_EQ(fromJsonLine(line, "trials.jsonl").oracle, "segmentation");
+  }
+  EXPECT_EQ(n, 1);
   fs::remove_all(dir);
 }
 
