@@ -81,7 +81,7 @@ CloudGraspOptions cloudGraspOptionsFor(const GripperSpec& gripper, const TaskOpt
   co.region_half = perception.crop_half;
   co.region_height = perception.crop_height;
   co.finger_margin = task.finger_margin;
-  co.padding = std::min(task.padding, task.cloud_padding);
+  co.padding = task.cloudGraspPadding();
   co.seeds = task.cloud_seeds;
   co.min_bite = task.cloud_bite;
   return co;
@@ -140,7 +140,7 @@ struct GraspCheckers {
 // margin; a grasp from the camera's points was cleared against them with cloud_padding; else the
 // planner's.
 double graspPadding(const TaskOptions& o, double margin, bool cloud) {
-  if (cloud) return std::min(o.padding, o.cloud_padding);
+  if (cloud) return o.cloudGraspPadding();
   return margin < o.finger_margin ? std::min(o.padding, margin) : o.padding;
 }
 

@@ -1,5 +1,6 @@
 // The task layer's tunables (filled from the experiment's declared parameters).
 #pragma once
+#include <algorithm>
 #include <string>
 
 #include "core/config.h"
@@ -44,6 +45,9 @@ struct TaskOptions {
   /// the detector clears a hand, and in the checks of those candidates' approach, lift and connect
   /// (the depth's noise; `padding` is free motion's, a centimetre that fills the gaps of a pile)
   double cloud_padding = 0.004;
+  /// [m] a grasp from the camera's points: its padding, in the detector and in every check of its
+  /// motions near the pile (the planner's, if that is less)
+  double cloudGraspPadding() const { return std::min(padding, cloud_padding); }
   double cloud_bite = 0.012;             ///< [m] cloud grasps: the fingertips at least this far past the seed (GPD's init_bite: 0.01)
   double tight_margin = 0.0;             ///< [m] finger margin and approach padding when nothing fits otherwise (0: never; clutter: 0.004)
   bool weld = false;                     ///< weld-on-grasp (attach plugin) instead of friction
