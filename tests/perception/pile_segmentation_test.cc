@@ -24,6 +24,10 @@
 #include "sim/sim_world.h"
 #include "kinematics/ik.h"
 #include "task/pick_place.h"
+#include "task/trial_context.h"
+#include "campaign/experiment.h"
+#include "campaign/trial.h"
+#include "sim/hardware.h"
 
 namespace mm {
 namespace {
@@ -243,6 +247,45 @@ TEST(PileSegmentation, AnArmLeftInTheBinIsTakenOutOfItsView) {
   const Segmentation after = segmentDepth(frame, o);
   EXPECT_EQ(after.segments.size(), 0u);
   EXPECT_EQ(after.small.size(), 0u);
+}
+
+// The same through the view a trial's segmentation and model-free grasps read (captureView): the
+// camera renders the arm in the bin, and the robot takes its own points out at the joint positions
+// and the finger opening its hardware measures, with the truth closed (a read would throw).
+TEST(PileSegmentation, TheViewATrialSegmentsHasTheArmTakenOutAtTheJointsItMeasures) {
+  const Experiment e = loadExperiment("experiments/clutter_pile.yaml", {"perception.mode=camera"});
+  auto w = loadWorld(e, panda());
+  const Cell cell = makeCell(e, panda(), *w);
+  IkRequest req;
+  req.target = makePose(cell.T_world_bin * Vec3(0, 0, 0.03), panda().fk(panda().home()).linear());
+  req.seed = panda().home();
+  Rng rng(1);
+  const IkResult ik = makeIkSolver("auto", panda())->solve(req, rng);
+  ASSERT_TRUE(ik.ok()) << ik.reason;
+  w->setArm(ik.q());
+  w->setFingers(0.02);
+  w->updateKinematics();
+  auto hw = makeMujocoHardware(*w, panda(), {});
+  Rng noise(2);
+  hw->setCameraSource([&](const std::string& name, int width, int height, Frame& frame, std::string*) {
+    frame = renderer().render(*w, renderer().camera(*w, name, width, height, "(test)"), kDepth);
+    applyDepthNoise(frame, e.perception.noise, noise);
+    return true;
+  });
+  hw->guardTruth(true);
+  TrialContext ctx(*hw, panda(), cell.statics, e.task, cell.perception, e.seed, 0);
+  SegmentationOptions o;
+  o.T_world_region = cell.T_world_bin;
+  o.region_half = cell.bin_half;
+  std::string why;
+  Frame raw;
+  ASSERT_TRUE(hw->capture(cell.perception.camera, cell.perception.camera_width, cell.perception.camera_height, raw, &why)) << why;
+  EXPECT_GE(segmentDepth(raw, o).segments.size(), 1u) << "the hand, seen as an object";
+  Frame view;
+  ASSERT_TRUE(captureView(ctx, view, &why)) << why;
+  const Segmentation seen = segmentDepth(view, o);
+  EXPECT_EQ(seen.segments.size(), 0u);
+  EXPECT_EQ(seen.small.size(), 0u);
 }
 
 // An empty bin seen through the stereo noise, as trials see it: the floor's noise is neither an object nor an
