@@ -10,6 +10,7 @@
 #include <Eigen/Eigenvalues>
 
 namespace mm {
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
