@@ -202,6 +202,7 @@ bool needsCamera(const Experiment& e, const bt::TreeDocument& tree) {
 bool needsCamera(const Experiment& e) { return needsCamera(e, loadTree(e)); }
 
 std::string oracleOf(const Experiment& e) {
+  if (e.perception.mode == PerceptionMode::kGroundTruth) return "poses";
   return e.perception.mode == PerceptionMode::kCamera && e.perception.segmentation == SegmentationSource::kLabels ? "segmentation" : "";
 }
 

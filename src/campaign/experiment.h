@@ -86,9 +86,10 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
 bool needsCamera(const Experiment& e);
 bool needsCamera(const Experiment& e, const bt::TreeDocument& tree);
 
-/// What the trials are given that no real cell has, for every trial record to say: empty, or
-/// "segmentation" (camera mode's points cut by the renderer's per-object labels,
-/// perception.segmentation: labels).
+/// What the trials are given that no real cell has, for every trial record to say: "poses" (the
+/// simulator's poses of the objects, perception.mode: ground_truth), "segmentation" (camera
+/// mode's points cut by the renderer's per-object labels, perception.segmentation: labels), or
+/// empty (camera mode from the depth; a hardcoded pose from the configuration).
 std::string oracleOf(const Experiment& e);
 
 /// A sweep's cells: every combination of its factors' values (the first factor varies slowest),

@@ -21,8 +21,9 @@ void TrialRecord::describe(RecordArchive& a) {
   a.field("seed", seed, "", "campaign seed");
   a.field("hardware", hardware, "", "mujoco or mock");
   a.field("oracle", oracle, "",
-          "what the robot was given that no real cell has: null for nothing; segmentation (camera mode's points cut into objects by the "
-          "renderer's per-object labels, perception.segmentation: labels)");
+          "what the robot was given that no real cell has: poses (the simulator's poses of the objects, perception.mode: ground_truth); "
+          "segmentation (camera mode's points cut into objects by the renderer's per-object labels, perception.segmentation: labels); "
+          "null for nothing (camera mode from the depth alone, or perception.mode: hardcoded, a pose from the configuration)");
   a.field("attempts", attempts, "", "worker processes the trial took: 2 when the first died or hung and a fresh one ran it again");
   a.field("success", o.success, "", "the tree succeeded, every object let go of rests at its target, nothing is left in the hand");
   a.field("failure_stage", o.failure_stage, "", "the stage that failed (null on success)");

@@ -103,6 +103,7 @@ PointCloud cloudFromDepth(const Frame& frame, const CloudGraspOptions& o) {
   const CameraModel& cam = frame.camera;
   const Pose T_region_world = o.T_world_region.inverse();
   const double hx = o.region_half.x() + o.region_margin, hy = o.region_half.y() + o.region_margin;
+  if (cam.width <= 0 || cam.height <= 0) return {};
   // One point per voxel: the mean of its pixels' points, in the order of the first pixel.
   std::unordered_map<int64_t, int> voxel_of;
   std::vector<Vec3> sum;
@@ -130,7 +131,7 @@ PointCloud cloudFromDepth(const Frame& frame, const CloudGraspOptions& o) {
   for (int v = v0; v <= v1; ++v)
     for (int u = u0; u <= u1; ++u) {
       const float z = frame.depth[static_cast<size_t>(v) * cam.width + u];
-      if (!(z > 0)) continue;
+      if (!(z > 0) || !std::isfinite(z)) continue;
       const Vec3 p = cam.unproject(u, v, z), q = T_region_world * p;
       if (std::abs(q.x()) > hx || std::abs(q.y()) > hy || q.z() < -0.01 || q.z() > o.region_height) continue;
       const int64_t k = cellKey((p / o.voxel).array().floor().cast<int>());
@@ -380,7 +381,6 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
         };
         // Push the hand forward: the TCP at depth d along z from the seed. The deepest hand whose
         // straight approach is clear, with enough points between the pads, is kept.
-
         bool have = false;
         GraspCandidate best;
         int best_contacts = 0, best_points = 0;
