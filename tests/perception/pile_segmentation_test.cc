@@ -215,22 +215,29 @@ TEST(PileSegmentation, TheLabelsOracleFindsEveryVisibleObjectAndNoFalseSegment) 
   EXPECT_EQ(s.false_segments, 0);
 }
 
+// The arm with its TCP 3 cm over the bin floor's centre, pointing down as at home, the fingers
+// 2 cm open (set only when the IK solves).
+IkResult putHandInBin(SimWorld& w, const Pose& T_bin) {
+  IkRequest req;
+  req.target = makePose(T_bin * Vec3(0, 0, 0.03), panda().fk(panda().home()).linear());
+  req.seed = panda().home();
+  Rng rng(1);
+  const IkResult ik = makeIkSolver("auto", panda())->solve(req, rng);
+  if (!ik.ok()) return ik;
+  w.setArm(ik.q());
+  w.setFingers(0.02);
+  w.updateKinematics();
+  return ik;
+}
+
 // The robot's own points (removeRobotPoints, the self filter of the views segmented and of those the
 // model-free grasps read): with the hand down in the empty bin, the depth's segmentation makes an
 // object of it; with the robot's points taken out at the joint positions it measures, of nothing.
 TEST(PileSegmentation, AnArmLeftInTheBinIsTakenOutOfItsView) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   const auto [T_bin, half] = w->site("bin_region");
-  // The TCP 3 cm over the bin floor's centre, pointing down as at home.
-  IkRequest req;
-  req.target = makePose(T_bin * Vec3(0, 0, 0.03), panda().fk(panda().home()).linear());
-  req.seed = panda().home();
-  Rng rng(1);
-  const IkResult ik = makeIkSolver("auto", panda())->solve(req, rng);
+  const IkResult ik = putHandInBin(*w, T_bin);
   ASSERT_TRUE(ik.ok()) << ik.reason;
-  w->setArm(ik.q());
-  w->setFingers(0.02);
-  w->updateKinematics();
   const CameraModel cam = renderer().camera(*w, "overhead_camera", 640, 480, "(test)");
   Frame frame = renderer().render(*w, cam, kDepth);
   Rng noise(2);
@@ -256,15 +263,8 @@ TEST(PileSegmentation, TheViewATrialSegmentsHasTheArmTakenOutAtTheJointsItMeasur
   const Experiment e = loadExperiment("experiments/clutter_pile.yaml", {"perception.mode=camera"});
   auto w = loadWorld(e, panda());
   const Cell cell = makeCell(e, panda(), *w);
-  IkRequest req;
-  req.target = makePose(cell.T_world_bin * Vec3(0, 0, 0.03), panda().fk(panda().home()).linear());
-  req.seed = panda().home();
-  Rng rng(1);
-  const IkResult ik = makeIkSolver("auto", panda())->solve(req, rng);
+  const IkResult ik = putHandInBin(*w, cell.T_world_bin);
   ASSERT_TRUE(ik.ok()) << ik.reason;
-  w->setArm(ik.q());
-  w->setFingers(0.02);
-  w->updateKinematics();
   auto hw = makeMujocoHardware(*w, panda(), {});
   Rng noise(2);
   hw->setCameraSource([&](const std::string& name, int width, int height, Frame& frame, std::string*) {
