@@ -1,12 +1,9 @@
 #include "campaign/worker.h"
 
-#include <fcntl.h>
 #include <signal.h>
-#include <sys/prctl.h>
 #include <unistd.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -72,50 +69,16 @@ TrialRecord runOneTrial(const Experiment& e, const RobotModel& robot, const Cell
   return makeRecord(e, trial, spawn, std::move(o), bt_log.empty() ? "" : fs::relative(bt_log, out).string());
 }
 
-std::string signalText(int sig) {
-  const char* abbrev = sigabbrev_np(sig);
-  return "signal " + std::to_string(sig) + (abbrev ? std::string(" (SIG") + abbrev + ")" : "");
-}
-
 WorkerProcess spawnWorker(const std::string& binary, const std::vector<std::string>& args) {
-  int to[2], from[2];
-  if (pipe2(to, O_CLOEXEC) != 0 || pipe2(from, O_CLOEXEC) != 0) throw std::runtime_error("pipe: " + std::string(std::strerror(errno)));
-  std::vector<char*> argv;
-  argv.push_back(const_cast<char*>(binary.c_str()));
-  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  const pid_t parent = getpid();
-  const pid_t pid = fork();
-  if (pid < 0) throw std::runtime_error("fork: " + std::string(std::strerror(errno)));
-  if (pid == 0) {
-    // The child: async-signal-safe calls only until exec.
-    prctl(PR_SET_PDEATHSIG, SIGKILL);  // dies with the supervisor, even by kill -9
-    if (getppid() != parent) _exit(1);
-    signal(SIGPIPE, SIG_DFL);
-    dup2(to[0], STDIN_FILENO);
-    dup2(from[1], STDOUT_FILENO);
-    execv(binary.c_str(), argv.data());
-    _exit(127);
-  }
-  close(to[0]);
-  close(from[1]);
+  ChildSpec spec;
+  spec.argv.push_back(binary);
+  spec.argv.insert(spec.argv.end(), args.begin(), args.end());
+  const ChildPipes c = startChild(spec);
   WorkerProcess w;
-  w.pid = pid;
-  w.to = to[1];
-  w.from = from[0];
+  w.pid = c.pid;
+  w.to = c.to;
+  w.from = c.from;
   return w;
-}
-
-bool sendLine(int fd, const std::string& line) {
-  const std::string s = line + "\n";
-  size_t off = 0;
-  while (off < s.size()) {
-    const ssize_t n = write(fd, s.data() + off, s.size() - off);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;  // the worker is gone (EPIPE): its end is seen on its output
-    off += static_cast<size_t>(n);
-  }
-  return true;
 }
 
 void Watchdog::finished(double seconds) {

@@ -18,6 +18,7 @@
 #include "campaign/experiment.h"
 #include "campaign/record.h"
 #include "campaign/trial.h"
+#include "core/child_process.h"
 
 namespace mm {
 
@@ -37,13 +38,9 @@ struct WorkerProcess {
   std::string error;  ///< its ERROR line, if any
 };
 
-/// Starts `binary` with `args`, its stdin and stdout as pipes to us; it dies with this process
-/// (PR_SET_PDEATHSIG), even by kill -9.
+/// Starts `binary` with `args`, its stdin and stdout as pipes to us (startChild: it dies with this
+/// process, even by kill -9). Lines to it: sendLine.
 WorkerProcess spawnWorker(const std::string& binary, const std::vector<std::string>& args);
-/// Writes `line` and a newline to `fd`; false when the worker is gone (its end is seen on its output).
-bool sendLine(int fd, const std::string& line);
-/// "signal 11 (SIGSEGV)".
-std::string signalText(int sig);
 
 /// The watchdog's patience: the configured limit, or 10x the median trial when that is more.
 class Watchdog {
