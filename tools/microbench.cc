@@ -6,8 +6,10 @@
 #include "core/rng.h"
 #include "kinematics/chain.h"
 #include "kinematics/ik.h"
+#include "core/camera.h"
 #include "planning/collision.h"
 #include "sim/sim_world.h"
+#include "task/external_component.h"
 
 namespace mm {
 namespace {
@@ -118,6 +120,36 @@ void BM_Checker(benchmark::State& s, const std::string& name) {
 BENCHMARK_CAPTURE(BM_Checker, fcl, std::string("fcl"));
 BENCHMARK_CAPTURE(BM_Checker, spheres, std::string("spheres"));
 BENCHMARK_CAPTURE(BM_Checker, spheres_fcl, std::string("spheres+fcl"));
+
+// The process protocol's overhead per perception: a view's depth (float32) and colour written as
+// .npy files, the request sent, and the answer read and parsed, with the reference client
+// (Debian's python3) loading both images and answering no grasp (--load-only). Wall time.
+void BM_ExternalRoundTrip(benchmark::State& s) {
+  Frame f;
+  f.camera.width = static_cast<int>(s.range(0)), f.camera.height = static_cast<int>(s.range(1));
+  f.camera.fx = f.camera.fy = 554.3, f.camera.cx = (f.camera.width - 1) / 2.0, f.camera.cy = (f.camera.height - 1) / 2.0;
+  const size_t pixels = static_cast<size_t>(f.camera.width) * static_cast<size_t>(f.camera.height);
+  f.depth.assign(pixels, 0.9f);
+  f.rgb.assign(3 * pixels, 128);
+  ExternalOptions o;
+  o.command = "/usr/bin/python3 tools/external_grasps.py --load-only";
+  o.cwd = MINIMANIP_SOURCE_DIR;
+  ExternalComponent x(o, "/dev/null");
+  double write = 0, answer = 0;
+  for (auto _ : s) {
+    ExternalRequest r;
+    r.camera = f.camera;
+    const ExternalCall c = x.call(r, f);
+    if (!c.ok()) {
+      s.SkipWithError(c.reason.c_str());
+      break;
+    }
+    write += c.write_seconds, answer += c.answer_seconds;
+  }
+  s.counters["write_ms"] = benchmark::Counter(1e3 * write / static_cast<double>(s.iterations()));
+  s.counters["answer_ms"] = benchmark::Counter(1e3 * answer / static_cast<double>(s.iterations()));
+}
+BENCHMARK(BM_ExternalRoundTrip)->Args({640, 480})->Args({1280, 960})->UseRealTime()->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace mm

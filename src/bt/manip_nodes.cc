@@ -282,7 +282,8 @@ class WaitForGraspCandidates final : public TaskAction {
     return {inputPort<unsigned>("timeout", "3000", "[ms] accepted; the candidates are ready at once"),
             inputPort<std::string>("source", "",
                                    "model: from each perceived object's shape and pose; cloud: model-free, from the perception "
-                                   "camera's points, each under the perceived object it closes on; empty: the experiment's grasp.source"),
+                                   "camera's points, each under the perceived object it closes on; external: from the external "
+                                   "component (external.command) given the same view, likewise; empty: the experiment's grasp.source"),
             outputPort<GraspList>("candidates", "grasp candidates, most accessible object first, best first per object")};
   }
 
@@ -290,12 +291,13 @@ class WaitForGraspCandidates final : public TaskAction {
   NodeStatus run(TrialContext& c) override {
     const auto source_in = getInput<std::string>("source");
     const std::string source = source_in ? source_in.value() : "";
-    if (source != "" && source != "model" && source != "cloud")
-      throw RuntimeError("WaitForGraspCandidates: source '" + source + "': expected model, cloud or nothing");
-    if (source == "cloud" || (source.empty() && c.options.grasp_source == TaskOptions::GraspSource::kCloud)) {
-      // Objects in the order of their best candidate from the camera's points.
+    if (source != "" && source != "model" && source != "cloud" && source != "external")
+      throw RuntimeError("WaitForGraspCandidates: source '" + source + "': expected model, cloud, external or nothing");
+    const bool external = source == "external" || (source.empty() && c.options.grasp_source == TaskOptions::GraspSource::kExternal);
+    if (external || source == "cloud" || (source.empty() && c.options.grasp_source == TaskOptions::GraspSource::kCloud)) {
+      // Objects in the order of their best candidate from the camera's points (or the component's).
       std::vector<std::pair<ObjectState, std::vector<GraspCandidate>>> per_object;
-      const Failure f = cloudGraspCandidates(c, per_object);
+      const Failure f = external ? externalGraspCandidates(c, per_object) : cloudGraspCandidates(c, per_object);
       if (!f.ok()) return statusOf(c.fail(f));
       GraspList list;
       for (const auto& [object, candidates] : per_object)

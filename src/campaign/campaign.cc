@@ -24,6 +24,7 @@
 #include "campaign/results_folder.h"
 #include "campaign/trial.h"
 #include "campaign/worker.h"
+#include "core/child_process.h"
 #include "core/error.h"
 #include "core/file_io.h"
 #include "core/folder_lock.h"
@@ -214,6 +215,35 @@ void checkIkFits(const Experiment& e, const RobotModel& robot) {
 
 }  // namespace
 
+namespace {
+
+// The external component a tree asks (usesExternal) must be one that can be started: a command, a
+// program found, a working directory that is one. Exit 2 before any trial, naming where it was set.
+void checkExternalComponent(const Experiment& e) {
+  const ExternalOptions& x = e.task.external;
+  auto where = [&](const char* key) {
+    const std::string& origin = e.params.origin(key);
+    return origin.empty() || origin == "(default)" ? e.file : origin;
+  };
+  const std::string asked = e.task.grasp_source == TaskOptions::GraspSource::kExternal
+                                ? "grasp.source is external"
+                                : "the tree (" + e.tree_path + ") has WaitForGraspCandidates source=\"external\"";
+  if (x.argv().empty())
+    throw InputError(where("external.command"), asked + ", and external.command is " + (x.command == "none" ? "none" : "blank") +
+                                                        ": expected the command that starts the component (e.g. /usr/bin/python3 "
+                                                        "tools/external_grasps.py)");
+  std::error_code ec;
+  if (!x.cwd.empty() && !fs::is_directory(x.cwd, ec))
+    throw InputError(where("external.cwd"), "external.cwd '" + x.cwd + "' is not a folder");
+  try {
+    resolveProgram(x.argv()[0], x.cwd);
+  } catch (const std::runtime_error& err) {
+    throw InputError(where("external.command"), "external.command '" + x.command + "': " + err.what());
+  }
+}
+
+}  // namespace
+
 std::string robotAsLoaded(const RobotModel& robot) {
   const RobotSpec& s = robot.spec();
   std::ostringstream o;
@@ -253,16 +283,18 @@ std::string checkCampaignInput(const Experiment& e) {
   const std::string as_loaded = robotAsLoaded(robot);
   const auto world = loadWorld(e, robot);
   makeCell(e, robot, *world);
-  loadTree(e);
+  const bt::TreeDocument tree = loadTree(e);
   // The cameras named must exist; camera perception cannot run without a renderer.
-  const bool camera = needsCamera(e);  // a bad source= of the tree is exit 2 here
+  const bool camera = needsCamera(e, tree);  // a bad source= of the tree is exit 2 here
+  if (usesExternal(e, tree)) checkExternalComponent(e);
   if (camera || e.render.enabled()) {
     std::string why;
     const auto renderer = Renderer::create(e.render.egl, &why);
     if (!renderer && camera)
       throw InputError(e.file, std::string(e.perception.mode == PerceptionMode::kCamera            ? "perception.mode camera"
                                            : e.task.grasp_source == TaskOptions::GraspSource::kCloud ? "grasp.source cloud"
-                                                                                                    : "the tree's WaitForGraspCandidates source=\"cloud\" (" + e.tree_path + ")") +
+                                           : e.task.grasp_source == TaskOptions::GraspSource::kExternal ? "grasp.source external"
+                                                                                                    : "the tree's WaitForGraspCandidates source= (" + e.tree_path + ")") +
                                    " needs an offscreen OpenGL context, and none can be made here: " + why);
     if (renderer && camera)
       renderer->camera(*world, e.perception.camera, 64, 48, e.file, "perception.camera");

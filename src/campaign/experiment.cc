@@ -192,18 +192,27 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
 bool needsCamera(const Experiment& e, const bt::TreeDocument& tree) {
   bool cloud = false;
   for (const auto& [value, where] : tree.attributeValues("WaitForGraspCandidates", "source")) {
-    if (value != "" && value != "model" && value != "cloud")
-      throw InputError(where, "WaitForGraspCandidates source=\"" + value + "\": expected model, cloud or nothing");
-    cloud |= value == "cloud";
+    if (value != "" && value != "model" && value != "cloud" && value != "external")
+      throw InputError(where, "WaitForGraspCandidates source=\"" + value + "\": expected model, cloud, external or nothing");
+    cloud |= value == "cloud" || value == "external";
   }
-  return cloud || e.perception.mode == PerceptionMode::kCamera || e.task.grasp_source == TaskOptions::GraspSource::kCloud;
+  return cloud || e.perception.mode == PerceptionMode::kCamera || e.task.grasp_source != TaskOptions::GraspSource::kModel;
+}
+
+bool usesExternal(const Experiment& e, const bt::TreeDocument& tree) {
+  if (e.task.grasp_source == TaskOptions::GraspSource::kExternal) return true;
+  for (const auto& [value, where] : tree.attributeValues("WaitForGraspCandidates", "source"))
+    if (value == "external") return true;
+  return false;
 }
 
 bool needsCamera(const Experiment& e) { return needsCamera(e, loadTree(e)); }
 
 std::string oracleOf(const Experiment& e) {
   if (e.perception.mode == PerceptionMode::kGroundTruth) return "poses";
-  return e.perception.mode == PerceptionMode::kCamera && e.perception.segmentation == SegmentationSource::kLabels ? "segmentation" : "";
+  if (e.perception.mode == PerceptionMode::kCamera && e.perception.segmentation == SegmentationSource::kLabels) return "segmentation";
+  // The external component given the renderer's segmentation (external.oracle).
+  return e.task.external.oracle && !e.task.external.argv().empty() ? "segmentation" : "";
 }
 
 }  // namespace mm

@@ -81,14 +81,19 @@ Experiment loadExperiment(const std::string& path, const std::vector<std::string
                           const std::vector<std::string>& sweeps = {}, bool file_sweep = true);
 
 /// Whether the trials read the perception camera's images: camera perception, or grasps from its
-/// points (grasp.source: cloud, or a WaitForGraspCandidates of the tree with source="cloud"). Such
-/// a campaign needs an offscreen OpenGL context. The first form loads the experiment's tree.
+/// points or from an external component given its view (grasp.source: cloud or external, or a
+/// WaitForGraspCandidates of the tree with that source). Such a campaign needs an offscreen OpenGL
+/// context. The first form loads the experiment's tree.
 bool needsCamera(const Experiment& e);
 bool needsCamera(const Experiment& e, const bt::TreeDocument& tree);
+/// Whether the trials ask the external component (grasp.source: external, or a
+/// WaitForGraspCandidates source="external" of the tree).
+bool usesExternal(const Experiment& e, const bt::TreeDocument& tree);
 
 /// What the trials are given that no real cell has, for every trial record to say: "poses" (the
 /// simulator's poses of the objects, perception.mode: ground_truth), "segmentation" (camera
-/// mode's points cut by the renderer's per-object labels, perception.segmentation: labels), or
+/// mode's points cut by the renderer's per-object labels, perception.segmentation: labels; or the
+/// external component given them, external.oracle), or
 /// empty (camera mode from the depth; a hardcoded pose from the configuration).
 std::string oracleOf(const Experiment& e);
 

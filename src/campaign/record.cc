@@ -96,7 +96,7 @@ void TrialRecord::describe(RecordArchive& a) {
     p.field("grasp_opening", k.grasp_opening, "m", "per finger when it was grasped");
     p.field("neighbours_moved", k.neighbours_moved, "m", "the farthest another object moved while this one was picked");
     p.field("in_hand_slip", k.in_hand_slip, "m", "how far it moved in the hand from the fingers closing to their opening (0: not let go of by a release)");
-    p.field("grasp_type", k.grasp_type, "", "top_down, side or cloud (model-free, from the camera's points; empty: taken hold of without a planned grasp)");
+    p.field("grasp_type", k.grasp_type, "", "top_down, side, cloud (model-free, from the camera's points) or external (from the external component; empty: taken hold of without a planned grasp)");
     p.field("grasp_deviation", k.grasp_deviation, "m",
             "the source's grasp-pose deviation: the achieved in-hand position's offset from the planned one when the fingers closed (the simulator's truth)");
     p.field("grasp_deviation_angle", k.grasp_deviation_angle, "rad", "the same, rotation, up to the object's symmetries");
@@ -137,7 +137,7 @@ void TrialRecord::describe(RecordArchive& a) {
     g.list("tried", n_tried, [&](size_t j, RecordArchive& t) {
       if (t.reading() && k.tried.size() <= j) k.tried.resize(j + 1);
       GraspTry& c = k.tried[j];
-      t.field("type", c.type, "", "top_down, side or cloud (model-free, from the camera's points)");
+      t.field("type", c.type, "", "top_down, side, cloud (model-free, from the camera's points) or external (from the external component)");
       t.field("score", c.score, "", "higher first: wrist turn, clearance, force-closure margin, pad area, torque arm, hand tilt");
       t.field("closure_margin", c.closure_margin, "rad", "atan(pad friction) minus the larger angle between a contact normal and the line between the contacts (> 0: force closure)");
       t.field("contact_area", c.contact_area, "m^2", "pad area the object covers");
@@ -169,6 +169,18 @@ void TrialRecord::describe(RecordArchive& a) {
     d.field("rms", k.rms, "m", "point-to-plane residual of the image's points against the cell's static boxes at the end");
     d.field("points", k.points, "", "image points matched to the cell's surfaces");
   }, "camera mode: every registration of the camera against the cell (RegisterCamera) that succeeded");
+  size_t n_ext = o.external_calls.size();
+  a.list("external_calls", n_ext, [&](size_t i, RecordArchive& d) {
+    if (d.reading() && o.external_calls.size() <= i) o.external_calls.resize(i + 1);
+    ExternalCallRecord& k = o.external_calls[i];
+    d.field("time", k.time, "s", "simulated, since the trial began");
+    d.field("result", k.result, "", "answer, error (the component's own: it found nothing), crash (its output ended), timeout (no answer within external.timeout), not_protocol (an answer that is not protocol version 1, or in another frame than external.frame), cannot_start");
+    d.field("reason", k.reason, "", "what happened, for all but answer (the perception's failure reason)");
+    d.field("write_seconds", k.write_seconds, "s", "wall: the view's images written for the component");
+    d.field("answer_seconds", k.answer_seconds, "s", "wall: the request sent until the answer read (the component's own time, recorded apart from the harness's compute time)");
+    d.field("grasps", k.grasps, "", "grasp candidates in the answer");
+    d.field("grasps_on_objects", k.grasps_on_objects, "", "of them, those whose pads close on one perceived object (tried by the pick, grasp_type external)");
+  }, "every call of the external component (grasp.source external; docs/external-components.md), in order");
   a.field("reported_total", o.reported_total, "", "ReportCompletion's total (-1: never reported)");
   size_t n_failures = o.failures.size();
   a.list("failures", n_failures, [&](size_t i, RecordArchive& f) {
@@ -528,6 +540,7 @@ std::string recordsMarkdown() {
   r.o.left.resize(1);
   r.o.detections.resize(1);
   r.o.camera_registrations.resize(1);
+  r.o.external_calls.resize(1);
   r.o.grasp_selections.resize(1);
   r.o.grasp_selections[0].tried.resize(1);
   r.o.grasp_attempts.resize(1);

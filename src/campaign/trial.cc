@@ -13,6 +13,7 @@
 #include "render/trial_renders.h"
 #include "sim/hardware.h"
 #include "sim/sim_world.h"
+#include "task/external_component.h"
 #include "task/pick_place.h"
 
 namespace mm {
@@ -22,6 +23,9 @@ TrialRunner::TrialRunner(const Experiment& e, const Cell& cell, const bt::TreeDo
     : e_(e), cell_(cell), doc_(tree), needs_camera_(needsCamera(e, tree)), log_dir_(std::move(log_dir)), date_(std::move(date)) {
   env_.T_world_place_target = cell.T_world_place_target;
   bt::registerTaskNodes(factory_, env_);
+  // The component's stderr beside the campaign's results (its workers append to the one file).
+  if (usesExternal(e, tree))
+    external_ = std::make_unique<ExternalComponent>(e.task.external, std::filesystem::path(log_dir_).parent_path() / "external_stderr.log");
 }
 
 TrialRunner::~TrialRunner() = default;
@@ -104,7 +108,9 @@ TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial
   if (renderer_ && needs_camera_)
     backend.setCameraSource([&](const std::string& name, int width, int height, Frame& frame, std::string*) {
       // The oracle's segmentation reads the renderer's labels (perception.segmentation: labels).
-      const unsigned kinds = e_.perception.segmentation == SegmentationSource::kLabels ? kDepth | kSegmentation : kDepth;
+      // The external component's declared oracle run is given them too (external.oracle); colour for it always.
+      const bool labels = e_.perception.segmentation == SegmentationSource::kLabels || (external_ && e_.task.external.oracle);
+      const unsigned kinds = (labels ? kDepth | kSegmentation : kDepth) | (external_ ? kRgb : 0u);
       frame = renderer_->render(world, renderer_->camera(world, name, width, height, e_.file), kinds);
       applyDepthNoise(frame, e_.perception.noise, camera_noise);
       return true;
@@ -117,6 +123,7 @@ TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial
   ctx.keep_view = keep_view;
   context = &ctx;
   ctx.faults = faults.get();
+  ctx.external = external_.get();
   env_.ctx = &ctx;
   std::unique_ptr<bt::Tree> tree = factory_.instantiate(doc_);
   tree->rootBlackboard().set("place_target", bt::toAny(cell_.T_world_place_target));

@@ -14,6 +14,7 @@
 
 namespace mm {
 
+class ExternalComponent;
 class Hardware;
 class Renderer;
 class SimWorld;
@@ -76,6 +77,7 @@ class TrialRunner {
   std::string render_dir_;
   RenderOptions render_;
   std::vector<std::string> rendered_;
+  std::unique_ptr<ExternalComponent> external_;  ///< the tree asks one: started at its first call, kept across trials
 };
 
 /// A process's rendering: the renderer (null when rendering is off or impossible) and the options

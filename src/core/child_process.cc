@@ -28,26 +28,6 @@ bool isExecutableFile(const fs::path& p) {
   return stat(p.c_str(), &st) == 0 && S_ISREG(st.st_mode) && access(p.c_str(), X_OK) == 0;
 }
 
-// The file exec will run: argv[0] itself when it names a path (relative to the child's working
-// directory), else the first executable of that name in PATH, as a shell finds it.
-fs::path resolveProgram(const std::string& name, const fs::path& cwd) {
-  if (name.find('/') != std::string::npos) {
-    const fs::path p = fs::path(name).is_absolute() || cwd.empty() ? fs::path(name) : cwd / name;
-    if (!fs::exists(p)) throw std::runtime_error("cannot start '" + name + "': no such file" + (cwd.empty() ? "" : " (from " + cwd.string() + ")"));
-    if (!isExecutableFile(p)) throw std::runtime_error("cannot start '" + name + "': not an executable file");
-    return fs::absolute(p);  // exec runs after the child's chdir
-  }
-  const char* env = std::getenv("PATH");
-  const std::string path = env && *env ? env : "/usr/local/bin:/usr/bin:/bin";
-  for (size_t start = 0; start <= path.size();) {
-    const size_t end = std::min(path.find(':', start), path.size());
-    const fs::path dir = end > start ? fs::path(path.substr(start, end - start)) : fs::path(".");
-    if (isExecutableFile(dir / name)) return fs::absolute(dir / name);
-    start = end + 1;
-  }
-  throw std::runtime_error("cannot start '" + name + "': no such program in PATH (" + path + ")");
-}
-
 // In the child: `fd` becomes `target`, open across exec (dup2 onto itself would keep close-on-exec).
 void moveTo(int fd, int target) {
   if (fd == target) fcntl(fd, F_SETFD, 0);
@@ -69,6 +49,25 @@ int aboveStdio(int fd) {
 }
 
 }  // namespace
+
+fs::path resolveProgram(const std::string& name, const fs::path& cwd) {
+  if (name.find('/') != std::string::npos) {
+    const fs::path p = fs::path(name).is_absolute() || cwd.empty() ? fs::path(name) : cwd / name;
+    if (!fs::exists(p)) throw std::runtime_error("cannot start '" + name + "': no such file" + (cwd.empty() ? "" : " (from " + cwd.string() + ")"));
+    if (!isExecutableFile(p)) throw std::runtime_error("cannot start '" + name + "': not an executable file");
+    return fs::absolute(p);  // exec runs after the child's chdir
+  }
+  const char* env = std::getenv("PATH");
+  const std::string path = env && *env ? env : "/usr/local/bin:/usr/bin:/bin";
+  for (size_t start = 0; start <= path.size();) {
+    const size_t end = std::min(path.find(':', start), path.size());
+    const fs::path dir = end > start ? fs::path(path.substr(start, end - start)) : fs::path(".");
+    if (isExecutableFile(dir / name)) return fs::absolute(dir / name);
+    start = end + 1;
+  }
+  throw std::runtime_error("cannot start '" + name + "': no such program in PATH (" + path + ")");
+}
+
 
 std::string signalText(int sig) {
   const char* abbrev = sigabbrev_np(sig);

@@ -28,6 +28,11 @@ struct ChildPipes {
   int from = -1;  ///< its stdout
 };
 
+/// The file exec would run for `name`: `name` itself when it names a path (relative to `cwd`, the
+/// child's working directory, when not empty), else the first executable of that name in PATH, as a
+/// shell finds it; absolute. Throws std::runtime_error, saying why, when there is none.
+std::filesystem::path resolveProgram(const std::string& name, const std::filesystem::path& cwd);
+
 /// Starts `spec`. Throws std::runtime_error, saying which program and why, when it cannot be started:
 /// no such program in PATH, not executable, a working directory or stderr file that cannot be used,
 /// exec refused. Both descriptors are close-on-exec in this process.

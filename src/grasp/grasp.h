@@ -52,10 +52,14 @@ struct GraspOptions {
 };
 
 /// kCloud: a model-free grasp from the depth image's points (grasp/cloud_grasps.h).
-enum class GraspType { kTopDown, kSide, kCloud };
+/// kCloud: from the camera's points (grasp/cloud_grasps.h); kExternal: from an external component
+/// (the user's detector). Both are a TCP pose and the object's width across the pads, no model.
+enum class GraspType { kTopDown, kSide, kCloud, kExternal };
 inline const char* graspTypeName(GraspType t) {
-  return t == GraspType::kSide ? "side" : t == GraspType::kCloud ? "cloud" : "top_down";
+  return t == GraspType::kSide ? "side" : t == GraspType::kCloud ? "cloud" : t == GraspType::kExternal ? "external" : "top_down";
 }
+/// A grasp from observed points with no model (kCloud, kExternal): its width is what the pads close on.
+inline bool fromPoints(GraspType t) { return t == GraspType::kCloud || t == GraspType::kExternal; }
 
 /// A TCP's orientation turned half a turn about its z (the approach): x and y reversed. For a
 /// parallel gripper it is the same grasp with the wrist the other way round.

@@ -154,6 +154,7 @@ bool parseAnswer(const std::string& line, const ExternalRequest& request, Extern
     why = "\"frame\" is " + (f == j.end() ? std::string("missing") : f->dump()) + ", expected \"camera\" or \"world\"";
     return false;
   }
+  out.frame = frame;
   const Pose T_world_frame = frame == ExternalFrame::kCamera ? request.camera.T_world_camera : Pose::Identity();
   const bool objects = request.want == ExternalWant::kObjects;
   const char* list = objects ? "objects" : "grasps";

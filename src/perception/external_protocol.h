@@ -16,8 +16,8 @@
 // 0 where there is no depth; rgb uint8 (height, width, 3); labels uint8 (height, width), given only
 // in a declared oracle run (core/camera.h's SegmentLabel). Camera frames are OpenCV's (x right, y
 // down, z forward); poses are 4 x 4 row-major matrices T_a_b (b's coordinates into a), metres.
-// The region is the bin's volume: a box of half extents about T_world_region's origin, its floor at
-// z = 0 of that frame. The gripper is the TCP frame's geometry: z along the approach (into the
+// The region is the bin's volume in T_world_region's frame: x within +-half_extents[0], y within
+// +-half_extents[1], z from 0 (the bin's floor) up to half_extents[2] (the tallest object's height). The gripper is the TCP frame's geometry: z along the approach (into the
 // object), the fingers closing along y, the pads from pad_z_min to pad_z_max along z (the tips at
 // pad_z_max), the hand body from hand_back behind the TCP.
 //
@@ -84,6 +84,7 @@ struct ExternalObject {
 };
 
 struct ExternalAnswer {
+  ExternalFrame frame = ExternalFrame::kWorld;  ///< the frame the child said it answered in
   std::vector<ExternalGrasp> grasps;    ///< in the world frame, in the child's order
   std::vector<ExternalObject> objects;  ///< in the world frame
   std::string error;                    ///< the child's own failure ("" when it answered)

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 
 #include "core/error.h"
 #include "grasp/cloud_grasps.h"
@@ -12,6 +13,7 @@
 #include "planning/chomp.h"
 #include "planning/time_parameterization.h"
 #include "sim/hardware.h"
+#include "task/external_component.h"
 #include "task/plan_steps.h"
 
 namespace mm {
@@ -28,37 +30,60 @@ std::vector<GraspCandidate> graspCandidates(TrialContext& ctx, const ObjectState
   return mm::graspCandidates(object, preferred_yaw, Vec3::Zero(), neighbours, go);
 }
 
-Failure cloudGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectState, std::vector<GraspCandidate>>>& out) {
-  out.clear();
+namespace {
+
+using PerObject = std::vector<std::pair<ObjectState, std::vector<GraspCandidate>>>;
+
+// A stage of grasp candidates from a view: its compute time booked under the pick's planning when
+// the returned function ends it with its failure (or none).
+std::function<Failure(const Failure&)> candidatesStage(TrialContext& ctx, const char* name) {
   const auto t = Clock::now();
-  StageRecord* st = &ctx.stage("cloud_grasps");
-  auto done = [&](const Failure& f) {
+  StageRecord* st = &ctx.stage(name);
+  return [&ctx, st, t](const Failure& f) {
     st->compute_seconds = since(t);
     ctx.out.plan_pick_time += st->compute_seconds;
     st->ok = f.ok();
     return f;
   };
+}
+
+// Each candidate of a grasp from points under the perceived object (not yet picked) its pads close
+// on, in the order of each object's first; `none` and `several` count those closing on no object
+// and on two or more. Returns how many were kept.
+int underObjects(const TrialContext& ctx, const std::vector<GraspCandidate>& candidates, const CloudGraspOptions& co, PerObject& out,
+                 int& none, int& several) {
+  std::vector<ObjectState> known;
+  for (const ObjectState& o : ctx.objects)
+    if (!picked(ctx, o.index)) known.push_back(o);
+  none = several = 0;
+  int kept = 0;
+  std::vector<int> slot(known.size(), -1);
+  for (const GraspCandidate& g : candidates) {
+    const int k = objectBetweenPads(g, known, co);
+    if (k < 0) {
+      ++(k == -1 ? none : several);
+      continue;
+    }
+    ++kept;
+    if (slot[k] < 0) slot[k] = static_cast<int>(out.size()), out.push_back({known[k], {}});
+    out[slot[k]].second.push_back(g);
+  }
+  return kept;
+}
+
+}  // namespace
+
+Failure cloudGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectState, std::vector<GraspCandidate>>>& out) {
+  out.clear();
+  const auto done = candidatesStage(ctx, "cloud_grasps");
   Frame frame;
   std::string why;
   if (!captureView(ctx, frame, &why)) return done({"cloud_grasps", FailureKind::kPerception, why});
   const CloudGraspOptions co = cloudGraspOptionsFor(ctx.robot.spec().gripper, ctx.options, ctx.perception);
   const Vec3 preferred_x = ctx.robot.fk(ctx.robot.home()).linear().col(0);
   const CloudGraspResult r = cloudGrasps(frame, co, preferred_x, ctx.rng_grasp);
-  // Each candidate under the perceived object it closes on.
-  std::vector<ObjectState> known;
-  for (const ObjectState& o : ctx.objects)
-    if (!picked(ctx, o.index)) known.push_back(o);
   int none = 0, several = 0;
-  std::vector<int> slot(known.size(), -1);
-  for (const GraspCandidate& g : r.candidates) {
-    const int k = objectBetweenPads(g, known, co);
-    if (k < 0) {
-      ++(k == -1 ? none : several);
-      continue;
-    }
-    if (slot[k] < 0) slot[k] = static_cast<int>(out.size()), out.push_back({known[k], {}});
-    out[slot[k]].second.push_back(g);
-  }
+  underObjects(ctx, r.candidates, co, out, none, several);
   if (out.empty()) {
     char buf[400];
     if (r.candidates.empty())
@@ -71,6 +96,62 @@ Failure cloudGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectStat
       std::snprintf(buf, sizeof buf, "no grasp from the camera's points closes on one perceived object (%zu candidates: %d on none, %d on two or more)",
                     r.candidates.size(), none, several);
     return done({"cloud_grasps", FailureKind::kNoGrasp, buf});
+  }
+  return done({});
+}
+
+Failure externalGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectState, std::vector<GraspCandidate>>>& out) {
+  out.clear();
+  const auto done = candidatesStage(ctx, "external_grasps");
+  if (!ctx.external)  // the experiment's checks refuse a tree that asks with no component configured
+    return done({"external_grasps", FailureKind::kPrecondition, "no external component (external.command) in this run"});
+  Frame frame;
+  std::string why;
+  if (!captureView(ctx, frame, &why)) return done({"external_grasps", FailureKind::kPerception, why});
+  const GraspOptions go = graspOptionsFor(ctx.robot.spec().gripper, ctx.options);
+  ExternalRequest request;
+  request.want = ExternalWant::kGrasps;
+  request.trial = ctx.trial_index;
+  request.seed = ctx.run_seed;
+  request.camera = frame.camera;
+  request.T_world_region = ctx.perception.T_world_crop;
+  request.region_half = Vec3(ctx.perception.crop_half.x(), ctx.perception.crop_half.y(), ctx.perception.crop_height);
+  request.gripper = {go.max_opening,  go.finger_thickness, go.pad_half_width,      go.pad_z_min,
+                     go.pad_z_max,    go.hand_back,        go.hand_half_thickness, go.hand_half_width};
+  const ExternalCall call = ctx.external->call(request, frame);
+  ExternalCallRecord rec;
+  rec.time = ctx.simTime();
+  rec.result = call.result;
+  rec.reason = call.reason;
+  rec.write_seconds = call.write_seconds;
+  rec.answer_seconds = call.answer_seconds;
+  rec.grasps = static_cast<int>(call.answer.grasps.size());
+  // Each candidate under the perceived object its pads close on; the opening the component gives
+  // (the pads' distance) less the finger margin each side is the width they close on.
+  std::vector<GraspCandidate> candidates;
+  for (const ExternalGrasp& e : call.answer.grasps) {
+    GraspCandidate g;
+    g.T_world_tcp = e.T_world_tcp;
+    g.type = GraspType::kExternal;
+    g.width = std::max(0.002, e.opening - 2 * ctx.options.finger_margin);
+    g.score = e.score;
+    g.approach = -e.T_world_tcp.linear().col(2);
+    g.yaw = yawOf(e.T_world_tcp.linear());
+    candidates.push_back(g);
+  }
+  int none = 0, several = 0;
+  const CloudGraspOptions co = cloudGraspOptionsFor(ctx.robot.spec().gripper, ctx.options, ctx.perception);
+  rec.grasps_on_objects = underObjects(ctx, candidates, co, out, none, several);
+  ctx.out.external_calls.push_back(rec);
+  if (!call.ok()) return done({"external_grasps", FailureKind::kPerception, call.reason});
+  // The component's order is its ranking: each object's candidates best first by its scores.
+  for (auto& [object, mine] : out)
+    std::stable_sort(mine.begin(), mine.end(), [](const GraspCandidate& a, const GraspCandidate& b) { return a.score > b.score; });
+  if (out.empty()) {
+    char buf[300];
+    std::snprintf(buf, sizeof buf, "no grasp from the external component closes on one perceived object (%zu candidates: %d on none, %d on two or more)",
+                  call.answer.grasps.size(), none, several);
+    return done({"external_grasps", FailureKind::kNoGrasp, buf});
   }
   return done({});
 }
@@ -182,7 +263,7 @@ Failure tryGrasp(TrialContext& ctx, const ObjectState& object, const GraspCandid
   PlanningScene ls = planningScene(ctx, object.index, false);
   attachObject(ls, object.half_size, out.T_tcp_object, object.pieces);
   // The fingers closed on it: a grasp from the camera's points says how wide it closes on.
-  ls.finger_opening = g.type == GraspType::kCloud ? g.width / 2 : object.half_size.y();
+  ls.finger_opening = fromPoints(g.type) ? g.width / 2 : object.half_size.y();
   // It rests on the floor and, in a pile, against its neighbours; a mesh object's pieces are
   // checked as their boxes, which reach past the pieces: the lift lets them overlap this much,
   // and lifted straight up it leaves the cell's parts it rests on (those whose top is not above
@@ -197,7 +278,7 @@ Failure tryGrasp(TrialContext& ctx, const ObjectState& object, const GraspCandid
       if (s.type == Obstacle::Type::kBox && top <= bottom + kSupportTolerance) ls.attached_ignore.push_back(s.name);
     }
   }
-  const double lift_padding = g.type == GraspType::kCloud ? checkers.padding : o.padding;
+  const double lift_padding = fromPoints(g.type) ? checkers.padding : o.padding;
   auto lifting = makeChecker(o.checker, ctx.robot, ls, lift_padding);
   // A segment with no model is the columns under what the camera saw of it, and so is each of its
   // neighbours and each patch no segment explains: where they overlap as it is grasped, the same
@@ -231,7 +312,7 @@ bool failedBefore(const TrialContext& ctx, const GraspCandidate& g) {
   return std::any_of(ctx.failed_grasps.begin(), ctx.failed_grasps.end(), [&](const Pose& T) {
     if ((T.translation() - g.T_world_tcp.translation()).norm() >= 1e-3) return false;
     return angleBetween(T.linear(), g.T_world_tcp.linear()) < 1e-2 ||
-           (g.type == GraspType::kCloud && angleBetween(T.linear(), turned) < 1e-2);
+           (fromPoints(g.type) && angleBetween(T.linear(), turned) < 1e-2);
   });
 }
 
@@ -287,7 +368,7 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
   bool found = false;
   for (double margin : graspMargins(o)) {
     // Grasps from the camera's points were cleared at finger_margin: no tight pass for them.
-    const bool cloud = candidates[first < candidates.size() ? first : 0].type == GraspType::kCloud;
+    const bool cloud = fromPoints(candidates[first < candidates.size() ? first : 0].type);
     if (cloud && margin < o.finger_margin) break;
     GraspCheckers checkers = graspCheckers(ctx, object, margin);
     int tried = 0;
@@ -302,7 +383,7 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
       ++ctx.out.grasp_candidates_tried;
       GraspCandidate chosen = g;
       bool turned = false;
-      if (g.type == GraspType::kCloud) {
+      if (fromPoints(g.type)) {
         // A grasp from the points says how wide it closes: the fingers are checked where they open
         // for it, not at the object's box.
         GraspCheckers own = graspCheckers(ctx, object, margin, g.width / 2);
@@ -333,7 +414,7 @@ Failure selectGrasp(TrialContext& ctx, const ObjectState& object, const std::vec
       out.candidates_tried = tried;
       out.approach_distance = approach_distance;
       out.finger_margin = margin;
-      out.padding = graspPadding(o, margin, g.type == GraspType::kCloud);
+      out.padding = graspPadding(o, margin, fromPoints(g.type));
       ctx.out.grasp_opening = g.width / 2;
       out.pre_opening = std::min(travel, g.width / 2 + margin);
       break;
@@ -360,7 +441,7 @@ Failure planPick(TrialContext& ctx, const GraspSolution& g, Plan& out) {
     return f.ok() ? f : ctx.fail(f);
   };
   PlanningScene full_scene = planningScene(ctx, -1, false);
-  const double widest = g.candidate.type == GraspType::kCloud ? g.candidate.width
+  const double widest = fromPoints(g.candidate.type) ? g.candidate.width
                                                               : 2 * std::max(g.object.half_size.x(), g.object.half_size.y());
   const double margin = g.finger_margin > 0 ? g.finger_margin : o.finger_margin;
   full_scene.finger_opening = std::min(travel, widest / 2 + margin);

@@ -57,6 +57,12 @@ void removeRobotPoints(const RobotModel& robot, const VecX& q, double finger_ope
 /// best candidate; a candidate closing on no perceived object or on two is dropped. Records stage
 /// "cloud_grasps"; a failure (no view, no candidate) is returned, not recorded.
 Failure cloudGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectState, std::vector<GraspCandidate>>>& out);
+/// Candidates from the external component (ctx.external) given a fresh view of the perception
+/// camera, each under the perceived object its pads close on (as cloudGraspCandidates), best first
+/// by the component's scores. Recorded as stage "external_grasps" and one entry of the trial's
+/// external_calls; a call that did not answer (crash, hang, not the protocol, its own error) is a
+/// perception failure whose reason says which; returned, not recorded.
+Failure externalGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectState, std::vector<GraspCandidate>>>& out);
 /// The grasp options of `task` with the gripper's stroke, pad friction and geometry (the pads'
 /// extent and the hand body's, in the TCP frame) filled in.
 GraspOptions graspOptionsFor(const GripperSpec& gripper, const TaskOptions& task);

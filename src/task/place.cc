@@ -42,7 +42,10 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   // reach within millimetres of the object's bottom): set down, the same fingers come as near the
   // tray's floor, so the descent is checked with that padding too (the whole arm's, against the
   // objects already in the tray as well), and the retreat from it when the planner's fails.
-  const double down_padding = ctx.held_record.grasp_type == graspTypeName(GraspType::kCloud) ? o.cloudGraspPadding() : o.padding;
+  const double down_padding = ctx.held_record.grasp_type == graspTypeName(GraspType::kCloud) ||
+                                      ctx.held_record.grasp_type == graspTypeName(GraspType::kExternal)
+                                  ? o.cloudGraspPadding()
+                                  : o.padding;
   PlanningScene ps = planningScene(ctx, -1, true);
   ps.attached_padding = -kSupportTolerance;
   auto descending = makeChecker(o.checker, ctx.robot, ps, down_padding);

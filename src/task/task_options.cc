@@ -6,6 +6,21 @@
 
 namespace mm {
 
+std::vector<std::string> ExternalOptions::argv() const {
+  std::vector<std::string> words;
+  if (command == "none") return words;
+  std::string word;
+  for (char ch : command + " ") {
+    if (ch == ' ' || ch == '\t') {
+      if (!word.empty()) words.push_back(word);
+      word.clear();
+    } else {
+      word += ch;
+    }
+  }
+  return words;
+}
+
 void TaskOptions::declare(ConfigArchive& a) {
   a.enter("grasp");
   a.named("mode", weld, {{"friction", false}, {"weld", true}},
@@ -17,9 +32,10 @@ void TaskOptions::declare(ConfigArchive& a) {
   a.value("payload_compensation", payload_compensation,
           "while an object is held, the servo compensates its weight and commanded acceleration (its kind's nominal mass at "
           "the planned grasp's centre, as Franka's setLoad); false: the arm sags under it");
-  a.named("source", grasp_source, {{"model", GraspSource::kModel}, {"cloud", GraspSource::kCloud}},
+  a.named("source", grasp_source, {{"model", GraspSource::kModel}, {"cloud", GraspSource::kCloud}, {"external", GraspSource::kExternal}},
           "model: candidates from each perceived object's shape and pose; cloud: model-free 6-DoF candidates from the "
-          "perception camera's depth image (GPD's geometry), each tried on the perceived object it closes on (a tree's "
+          "perception camera's depth image (GPD's geometry), each tried on the perceived object it closes on; external: "
+          "candidates from the external component (external.command) given the same view, tried likewise (a tree's "
           "WaitForGraspCandidates may choose with its source port)");
   a.value("cloud_seeds", cloud_seeds, {10, 5000}, "", "cloud grasps: points drawn a view to build hands at");
   a.value("cloud_padding", cloud_padding, {0.0, 0.02}, "m",
@@ -36,6 +52,23 @@ void TaskOptions::declare(ConfigArchive& a) {
           "in clutter, when no grasp fits with finger_margin and planning.padding: the fingers open only this much wider than "
           "the object and the approach is checked with this padding (0: never)");
   grasp.declare(a);
+  a.leave();
+
+  a.enter("external");
+  a.value("command", external.command,
+          "an external component (your grasp detector, in any language): the program and its arguments, split at spaces "
+          "(no shell; a name is looked up in PATH), started once per worker and asked over the process protocol "
+          "(docs/external-components.md) for each view of grasp.source external; none: no component");
+  a.path("cwd", external.cwd, "the component's working directory; paths as for robot (the default: the project's root)");
+  a.value("timeout", external.timeout, {0.01, 86400.0}, "s",
+          "wall clock: an answer that takes longer is recorded as a timeout (a failure of that perception) and the component "
+          "is started afresh; a safety net, never an outcome of a trial that answered");
+  a.choice("frame", external.frame, {"camera", "world"},
+           "the frame the component's poses are in: camera (OpenCV's: x right, y down, z forward) or world; an answer "
+           "that says another is not the protocol");
+  a.value("oracle", external.oracle,
+          "the renderer's segmentation is given to the component (images.labels): a declared oracle run, marked so in "
+          "every record");
   a.leave();
 
   a.enter("motion");

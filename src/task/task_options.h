@@ -2,6 +2,7 @@
 #pragma once
 #include <algorithm>
 #include <string>
+#include <vector>
 
 #include "core/config.h"
 #include "grasp/grasp.h"
@@ -11,6 +12,18 @@
 #include "planning/trajectory.h"
 
 namespace mm {
+
+/// An external component: the user's program, started once per worker, that answers each
+/// perception over the process protocol (perception/external_protocol.h; task/external_component.h).
+struct ExternalOptions {
+  std::string command = "none";  ///< the program and its arguments, split at spaces (no shell; a name is looked up in PATH); "none"
+  std::string cwd = ".";  ///< its working directory (a default relative path: to the project root)
+  double timeout = 60;   ///< [s] wall clock: the longest an answer may take (a safety net, never an outcome)
+  std::string frame = "camera";  ///< the frame its answers are in: "camera" or "world" (an answer in another is refused)
+  bool oracle = false;   ///< the renderer's segmentation is given to it: a declared oracle run
+  /// The command split at spaces (empty words dropped); none for "none".
+  std::vector<std::string> argv() const;
+};
 
 struct TaskOptions {
   /// Keys in the sections grasp, motion, kinematics, planning, success and place.
@@ -35,10 +48,11 @@ struct TaskOptions {
   double grasp_force = 40.0;             ///< [N] per finger
   bool payload_compensation = true;      ///< the servo knows the held object's nominal mass
   double finger_margin = 0.012;          ///< [m] per finger beyond the object's half width when open
-  /// Where grasp candidates come from: the perceived objects' models (grasp/grasp.h), or the depth
-  /// camera's points with no model (grasp/cloud_grasps.h), each held by the perceived object it
-  /// closes on.
-  enum class GraspSource { kModel, kCloud };
+  /// Where grasp candidates come from: the perceived objects' models (grasp/grasp.h), the depth
+  /// camera's points with no model (grasp/cloud_grasps.h), or an external component (`external`),
+  /// each of the last two held by the perceived object it closes on.
+  enum class GraspSource { kModel, kCloud, kExternal };
+  ExternalOptions external;
   GraspSource grasp_source = GraspSource::kModel;
   int cloud_seeds = 400;                 ///< cloud grasps: seeds drawn a view
   /// [m] cloud grasps: the fingers and the hand inflated by this against the observed points when

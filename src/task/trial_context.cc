@@ -55,6 +55,8 @@ TrialContext::TrialContext(Hardware& hw_, const RobotModel& robot_, const std::v
       rng_ik(Rng::stream(campaign_seed, trial, Purpose::kIk)),
       rng_plan(Rng::stream(campaign_seed, trial, Purpose::kPlanner)),
       rng_grasp(Rng::stream(campaign_seed, trial, Purpose::kGrasp)),
+      run_seed(campaign_seed),
+      trial_index(trial),
       ik(makeIkSolver(task.ik_solver, robot_)), ik_near(makeIkSolver("dls", robot_)), executor(hw_),
       t_start(hw_.time()), q_rest(hw_.jointPositions()),
       gripper_opening(robot_.spec().gripper.travel) {  // the hardware starts with the gripper commanded open

@@ -27,6 +27,7 @@
 
 namespace mm {
 
+class ExternalComponent;
 class Hardware;
 
 /// One step of a plan: a joint trajectory, a gripper motion, attaching the grasped object, or a
@@ -129,6 +130,7 @@ class TrialContext {
   const PerceptionOptions& perception;
   Rng rng_perception, rng_ik, rng_plan;
   Rng rng_grasp;  ///< cloud grasps' seeds
+  uint64_t run_seed = 0, trial_index = 0;  ///< the campaign's seed and this trial's number
   std::unique_ptr<IkSolver> ik, ik_near;
   Executor executor;
   TrialOutcome out;
@@ -172,6 +174,7 @@ class TrialContext {
   /// extrinsics otherwise held (in the camera's frame: it moves with a camera on the arm).
   std::optional<Pose> T_extrinsics_registered;
   FaultHooks* faults = nullptr;      ///< fault injection, if any
+  ExternalComponent* external = nullptr;  ///< the worker's external component (external.command), if the tree asks one
   int picking = -1;                  ///< the object whose pick is being executed (-1: none)
   std::map<int, double> last_touch;  ///< per object, when the robot last touched it [s, simulated] (metrics)
   std::map<int, std::string> why_not;  ///< per object, why its last grasp or push could not be planned

@@ -36,6 +36,19 @@ struct RegistrationRecord {
   int points = 0;          ///< points matched to the cell's surfaces
 };
 
+/// One call of the external component (external.command) for a view: what came back and how long it
+/// took. The answer itself is kept (grasps in the world frame) so that the record says what the
+/// component proposed.
+struct ExternalCallRecord {
+  double time = 0;            ///< [s] simulated, since the trial began
+  std::string result;         ///< answer, error, crash, timeout, not_protocol or cannot_start
+  std::string reason;         ///< for all but answer
+  double write_seconds = 0;   ///< [s] wall: the view's images written
+  double answer_seconds = 0;  ///< [s] wall: the request sent until the answer read (the component's own time, apart)
+  int grasps = 0;             ///< candidates in the answer
+  int grasps_on_objects = 0;  ///< of them, closing on one perceived object (tried by the pick)
+};
+
 /// One object the robot let go of, and where it ended up.
 struct PickRecord {
   int object = -1;                 ///< index in the scene's object pool
@@ -53,7 +66,7 @@ struct PickRecord {
   double in_hand_slip = 0;         ///< [m] how far it moved in the hand from the fingers closing to the release (ground truth)
   /// A mesh object's convex pieces as perceived (the planner avoids it as them once placed); not recorded.
   std::shared_ptr<const std::vector<ConvexPiece>> pieces;
-  std::string grasp_type;          ///< "top_down", "side" or "cloud" (empty: taken hold of without a planned grasp)
+  std::string grasp_type;          ///< "top_down", "side", "cloud" or "external" (the component that proposed it) (empty: taken hold of without a planned grasp)
   double grasp_deviation = 0;      ///< [m] the achieved in-hand pose's offset from the planned one, at the fingers' closing (ground truth)
   double grasp_deviation_angle = 0;  ///< [rad] the same, rotation (up to the object's symmetries)
   bool first_pass = false;         ///< let go of at its target with no failure since the previous one was
@@ -62,7 +75,7 @@ struct PickRecord {
 
 /// One grasp candidate filterGrasps looked at: its scores and what became of it.
 struct GraspTry {
-  std::string type;            ///< "top_down", "side" or "cloud"
+  std::string type;            ///< "top_down", "side", "cloud" or "external" (the component that proposed it)
   double score = 0;
   double closure_margin = 0;   ///< [rad] force-closure margin (atan(mu) minus the larger contact angle)
   double contact_area = 0;     ///< [m^2] pad area the object covers
@@ -156,6 +169,7 @@ struct TrialOutcome {
   std::vector<DetectionRecord> detections;  ///< camera mode: every detection of every perception
   int missed_detections = 0;      ///< camera mode: objects in the bin a perception did not find
   std::vector<RegistrationRecord> camera_registrations;  ///< camera mode: every RegisterCamera that succeeded
+  std::vector<ExternalCallRecord> external_calls;  ///< every call of the external component
   std::vector<LeftRecord> left;   ///< every object left in the bin at the end
   std::vector<RecordedFailure> failures;
   std::vector<FaultRecord> faults;  ///< injected faults

@@ -339,7 +339,7 @@ TEST(CloudGrasps, ACampaignPicksWithGraspsFromTheCameraPoints) {
                                            " --out " + (dir.path() / "b").string());
   EXPECT_EQ(b.code, 2) << b.out;
   EXPECT_THAT(b.out, ::testing::HasSubstr("bad.xml:1")) << b.out;
-  EXPECT_THAT(b.out, ::testing::HasSubstr("expected model, cloud or nothing")) << b.out;
+  EXPECT_THAT(b.out, ::testing::HasSubstr("expected model, cloud, external or nothing")) << b.out;
 }
 
 }  // namespace
