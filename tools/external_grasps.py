@@ -8,7 +8,8 @@ lifts it into the bin's frame through the intrinsics and extrinsics it is given,
 of the bin (4 mm cells, the highest point of each), and proposes a top-down grasp at each local
 maximum of it: the hand turned to close across the narrowest width of the top there (12 directions),
 its pads reaching below the top by up to 2.5 cm, where the cells just outside both pads are low
-enough for the fingers to go down. Best first: the highest tops first, then the narrowest.
+enough for the fingers to go down, the pads opening 12 mm (or the request's finger margin, if more)
+wider than the top each side. Best first: the highest tops first, then the narrowest.
 
 Run by the harness (experiments/external_detector.yaml):  python3 tools/external_grasps.py [--frame camera|world]
 For the failure tests: --misbehave crash|hang|garbage|error|wrong-frame --every K does that on
@@ -26,9 +27,9 @@ import numpy as np
 CELL = 0.004        # [m] the height map's cells
 MIN_HEIGHT = 0.012  # [m] a top at least this far above the bin's floor
 MAX_BITE = 0.025    # [m] the pads reach at most this far below the top
-FLOOR_GAP = 0.004   # [m] the fingertips stay this far above the floor
 DROP = 0.012        # [m] an object's edge: where the height falls this far below its top
-MARGIN = 0.012      # [m] the pads open this much wider than the width on each side
+MIN_MARGIN = 0.012  # [m] the pads open at least this much wider than the top each side (it is narrower than below)
+FLOOR_GAP = 0.004   # [m] the fingertips stay this far above the floor
 
 
 def lift(depth, cam, T_world_region):
@@ -87,6 +88,9 @@ def detect(depth, request):
     hm = height_map(lift(depth, cam, T_world_region), half)
     stroke = grip["stroke"]
     finger = grip["finger_thickness"]
+    # The pads open this much wider than the top's width each side: the request's finger margin, or
+    # more (a top is narrower than the object below it).
+    margin = max(grip["finger_margin"], MIN_MARGIN)
     grasps = []
     peaks = sorted(local_maxima(hm, radius=int(0.02 / CELL)).tolist(), key=lambda ij: -hm[ij[0], ij[1]])
     taken = []  # a flat top is many equal maxima: one grasp per 2 cm
@@ -105,6 +109,7 @@ def detect(depth, request):
         bite = min(MAX_BITE, top - FLOOR_GAP)
         if bite < 0.006:
             continue
+        tip = top - bite  # the fingertips' height
         best = None
         for angle in np.arange(12) * np.pi / 12:
             d = np.array([np.cos(angle), np.sin(angle)])
@@ -115,14 +120,13 @@ def detect(depth, request):
                     s += CELL / 2
                 edges.append(s)
             width = edges[0] + edges[1]
-            opening = width + 2 * MARGIN
+            opening = width + 2 * margin
             if opening > stroke:
                 continue
             # The fingers go down outside the pads: the cells there must be below the fingertips.
-            tip = top - bite
             clear = True
             for side, e in ((-1, edges[0]), (1, edges[1])):
-                for s in np.arange(e + MARGIN - finger / 2, e + MARGIN + finger, CELL / 2):
+                for s in np.arange(e + margin - finger / 2, e + margin + finger, CELL / 2):
                     if sample(hm, cx + side * s * d[0], cy + side * s * d[1], half) > tip:
                         clear = False
                 if not clear:
@@ -170,6 +174,8 @@ def main():
     parser.add_argument("--every", type=int, default=1)
     parser.add_argument("--load-only", action="store_true")
     args = parser.parse_args()
+    if args.every < 1:
+        parser.error("--every takes a positive number")
     for line in sys.stdin:
         request = json.loads(line)
         started = time.time()

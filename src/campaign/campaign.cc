@@ -223,7 +223,7 @@ void checkExternalComponent(const Experiment& e) {
   const ExternalOptions& x = e.task.external;
   auto where = [&](const char* key) {
     const std::string& origin = e.params.origin(key);
-    return origin.empty() || origin == "(default)" ? e.file : origin;
+    return origin.empty() ? "--set " + std::string(key) : origin == "(default)" ? e.file : origin;
   };
   const std::string asked = e.task.grasp_source == TaskOptions::GraspSource::kExternal
                                 ? "grasp.source is external"
@@ -287,6 +287,10 @@ std::string checkCampaignInput(const Experiment& e) {
   // The cameras named must exist; camera perception cannot run without a renderer.
   const bool camera = needsCamera(e, tree);  // a bad source= of the tree is exit 2 here
   if (usesExternal(e, tree)) checkExternalComponent(e);
+  else if (e.task.external.oracle)
+    throw InputError(e.params.origin("external.oracle").empty() ? "--set external.oracle" : e.params.origin("external.oracle"),
+                     "external.oracle gives the external component the renderer's segmentation, but nothing asks the component "
+                     "(grasp.source external, or a tree's WaitForGraspCandidates source=\"external\")");
   if (camera || e.render.enabled()) {
     std::string why;
     const auto renderer = Renderer::create(e.render.egl, &why);

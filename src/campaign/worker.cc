@@ -1,5 +1,6 @@
 #include "campaign/worker.h"
 
+#include <fcntl.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -95,7 +96,8 @@ double Watchdog::limit() const {
 
 int runWorker(const Experiment& e, const std::string& out_dir) {
   // Our protocol owns the real stdout; anything else printed goes to stderr.
-  const int protocol = dup(STDOUT_FILENO);
+  // Close-on-exec: a child of ours (an external component) must not hold the supervisor's pipe open.
+  const int protocol = fcntl(STDOUT_FILENO, F_DUPFD_CLOEXEC, 3);
   dup2(STDERR_FILENO, STDOUT_FILENO);
   signal(SIGPIPE, SIG_IGN);  // a write to a gone supervisor fails instead
   FILE* to_supervisor = fdopen(protocol, "w");

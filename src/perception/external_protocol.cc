@@ -113,7 +113,8 @@ std::string requestLine(const ExternalRequest& r) {
                   {"pad_z_max", g.pad_z_max},
                   {"hand_back", g.hand_back},
                   {"hand_half_thickness", g.hand_half_thickness},
-                  {"hand_half_width", g.hand_half_width}};
+                  {"hand_half_width", g.hand_half_width},
+                  {"finger_margin", g.finger_margin}};
   j["oracle"] = r.oracle_segmentation ? ojson("segmentation") : ojson(nullptr);
   return j.dump();
 }

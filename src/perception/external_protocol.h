@@ -10,16 +10,20 @@
 //               "T_world_camera": [[4 x 4]]},
 //    "region": {"T_world_region": [[4 x 4]], "half_extents": [x, y, z]},
 //    "gripper": {"stroke": .., "finger_thickness": .., "pad_half_width": .., "pad_z_min": ..,
-//                "pad_z_max": .., "hand_back": .., "hand_half_thickness": .., "hand_half_width": ..},
+//                "pad_z_max": .., "hand_back": .., "hand_half_thickness": .., "hand_half_width": ..,
+//                "finger_margin": ..},
 //    "oracle": null or "segmentation"}
 // Images are NumPy .npy files (numpy.load reads them): depth float32 [m] of shape (height, width),
 // 0 where there is no depth; rgb uint8 (height, width, 3); labels uint8 (height, width), given only
 // in a declared oracle run (core/camera.h's SegmentLabel). Camera frames are OpenCV's (x right, y
 // down, z forward); poses are 4 x 4 row-major matrices T_a_b (b's coordinates into a), metres.
 // The region is the bin's volume in T_world_region's frame: x within +-half_extents[0], y within
-// +-half_extents[1], z from 0 (the bin's floor) up to half_extents[2] (the tallest object's height). The gripper is the TCP frame's geometry: z along the approach (into the
+// +-half_extents[1], z from 0 (the bin's floor) up to half_extents[2] (the perception's region: above
+// the tallest object the catalogue allows). The gripper is the TCP frame's geometry: z along the approach (into the
 // object), the fingers closing along y, the pads from pad_z_min to pad_z_max along z (the tips at
-// pad_z_max), the hand body from hand_back behind the TCP.
+// pad_z_max), the hand body from hand_back behind the TCP. A grasp's opening is the pads' distance
+// as the hand comes down: the harness takes the object's width across them as opening less
+// finger_margin each side (so a detector that knows the width answers width + 2 finger_margin).
 //
 // Answer (one line):
 //   {"protocol": 1, "id": 7, "frame": "camera" or "world",
@@ -52,6 +56,7 @@ struct ExternalGripper {
   double stroke = 0.08;
   double finger_thickness = 0.018, pad_half_width = 0.0105, pad_z_min = -0.045, pad_z_max = 0.009;
   double hand_back = 0.0414, hand_half_thickness = 0.042, hand_half_width = 0.102;
+  double finger_margin = 0.012;  ///< the pads open to a grasp's opening; the object's width is taken as that less this each side
 };
 
 enum class ExternalWant { kGrasps, kObjects };

@@ -54,6 +54,20 @@ std::string ExternalComponent::stopChild() {
 }
 
 ExternalCall ExternalComponent::call(ExternalRequest& request, const Frame& frame) {
+  // Our own side failing (the images cannot be written: a full /dev/shm; a pipe that cannot be
+  // polled) is a value too: that perception fails with the reason, and the next call starts afresh.
+  try {
+    return ask(request, frame);
+  } catch (const std::exception& e) {
+    stopChild();
+    ExternalCall out;
+    out.result = "io_error";
+    out.reason = std::string("the external component could not be asked: ") + e.what();
+    return out;
+  }
+}
+
+ExternalCall ExternalComponent::ask(ExternalRequest& request, const Frame& frame) {
   ExternalCall out;
   const CameraModel& cam = frame.camera;
   const size_t pixels = static_cast<size_t>(cam.width) * static_cast<size_t>(cam.height);

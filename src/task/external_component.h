@@ -22,7 +22,8 @@ struct Frame;
 
 /// One call's result (recorded per call in the trial's record: ExternalCallRecord).
 struct ExternalCall {
-  /// answer, error (the child's own), crash, timeout, not_protocol, cannot_start
+  /// answer, error (the child's own), crash, timeout, not_protocol, cannot_start, io_error (ours:
+  /// the images could not be written)
   std::string result;
   std::string reason;         ///< for all but answer: what happened, for the trial's failure
   double write_seconds = 0;   ///< [s] wall: writing the images
@@ -47,6 +48,7 @@ class ExternalComponent {
   int starts() const { return starts_; }
 
  private:
+  ExternalCall ask(ExternalRequest& request, const Frame& frame);
   std::string stopChild();
   ExternalOptions options_;
   std::filesystem::path stderr_log_, image_dir_;

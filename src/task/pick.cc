@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <functional>
 
 #include "core/error.h"
 #include "grasp/cloud_grasps.h"
@@ -34,18 +33,21 @@ namespace {
 
 using PerObject = std::vector<std::pair<ObjectState, std::vector<GraspCandidate>>>;
 
-// A stage of grasp candidates from a view: its compute time booked under the pick's planning when
-// the returned function ends it with its failure (or none).
-std::function<Failure(const Failure&)> candidatesStage(TrialContext& ctx, const char* name) {
-  const auto t = Clock::now();
-  StageRecord* st = &ctx.stage(name);
-  return [&ctx, st, t](const Failure& f) {
-    st->compute_seconds = since(t);
+// A stage of grasp candidates from a view, ended with its failure (or none): its compute time, less
+// `apart` (an external component's own wall time, recorded apart), booked under the pick's planning.
+struct CandidatesStage {
+  CandidatesStage(TrialContext& c, const char* name) : ctx(c), st(&c.stage(name)), t(Clock::now()) {}
+  Failure operator()(const Failure& f) const {
+    st->compute_seconds = std::max(0.0, since(t) - apart);
     ctx.out.plan_pick_time += st->compute_seconds;
     st->ok = f.ok();
     return f;
-  };
-}
+  }
+  TrialContext& ctx;
+  StageRecord* st;
+  Clock::time_point t;
+  double apart = 0;
+};
 
 // Each candidate of a grasp from points under the perceived object (not yet picked) its pads close
 // on, in the order of each object's first; `none` and `several` count those closing on no object
@@ -75,7 +77,7 @@ int underObjects(const TrialContext& ctx, const std::vector<GraspCandidate>& can
 
 Failure cloudGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectState, std::vector<GraspCandidate>>>& out) {
   out.clear();
-  const auto done = candidatesStage(ctx, "cloud_grasps");
+  const CandidatesStage done(ctx, "cloud_grasps");
   Frame frame;
   std::string why;
   if (!captureView(ctx, frame, &why)) return done({"cloud_grasps", FailureKind::kPerception, why});
@@ -102,7 +104,7 @@ Failure cloudGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectStat
 
 Failure externalGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectState, std::vector<GraspCandidate>>>& out) {
   out.clear();
-  const auto done = candidatesStage(ctx, "external_grasps");
+  CandidatesStage done(ctx, "external_grasps");
   if (!ctx.external)  // the experiment's checks refuse a tree that asks with no component configured
     return done({"external_grasps", FailureKind::kPrecondition, "no external component (external.command) in this run"});
   Frame frame;
@@ -116,9 +118,10 @@ Failure externalGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectS
   request.camera = frame.camera;
   request.T_world_region = ctx.perception.T_world_crop;
   request.region_half = Vec3(ctx.perception.crop_half.x(), ctx.perception.crop_half.y(), ctx.perception.crop_height);
-  request.gripper = {go.max_opening,  go.finger_thickness, go.pad_half_width,      go.pad_z_min,
-                     go.pad_z_max,    go.hand_back,        go.hand_half_thickness, go.hand_half_width};
+  request.gripper = {go.max_opening, go.finger_thickness,    go.pad_half_width,      go.pad_z_min, go.pad_z_max,
+                     go.hand_back,   go.hand_half_thickness, go.hand_half_width, ctx.options.finger_margin};
   const ExternalCall call = ctx.external->call(request, frame);
+  done.apart = call.answer_seconds;  // the component's time, not the harness's
   ExternalCallRecord rec;
   rec.time = ctx.simTime();
   rec.result = call.result;
@@ -127,7 +130,8 @@ Failure externalGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectS
   rec.answer_seconds = call.answer_seconds;
   rec.grasps = static_cast<int>(call.answer.grasps.size());
   // Each candidate under the perceived object its pads close on; the opening the component gives
-  // (the pads' distance) less the finger margin each side is the width they close on.
+  // (the pads' distance as the hand comes down) less the finger margin each side (the request's
+  // gripper says it) is the width they close on.
   std::vector<GraspCandidate> candidates;
   for (const ExternalGrasp& e : call.answer.grasps) {
     GraspCandidate g;

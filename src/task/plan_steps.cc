@@ -60,7 +60,9 @@ PlanningScene planningScene(const TrialContext& ctx, int exclude, bool attached)
     attachObject(s, ctx.held_record.half_size, ctx.T_tcp_held, ctx.held_pieces);
     // A grasp from the points closes across any direction of the object: the fingers are where
     // they closed, not at its box's y.
-    const bool cloud = ctx.held_record.grasp_type == "cloud" && ctx.held_record.grasp_opening > 0;
+    const bool cloud = (ctx.held_record.grasp_type == graspTypeName(GraspType::kCloud) ||
+                        ctx.held_record.grasp_type == graspTypeName(GraspType::kExternal)) &&
+                       ctx.held_record.grasp_opening > 0;
     s.finger_opening = cloud ? ctx.held_record.grasp_opening : ctx.held_record.half_size.y();
   }
   return s;

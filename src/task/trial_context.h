@@ -62,7 +62,7 @@ struct Plan {
   Vec3 object_half = Vec3::Zero();         ///< pick: its half sizes [m]
   ObjectShape object_shape = ObjectShape::kBox;  ///< pick: its shape
   std::shared_ptr<const std::vector<ConvexPiece>> object_pieces;  ///< pick: a mesh object's convex pieces
-  std::string grasp_type;                  ///< pick: "top_down", "side" or "cloud"
+  std::string grasp_type;                  ///< pick: "top_down", "side", "cloud" or "external"
   Pose T_tcp_object = Pose::Identity();    ///< pick: the object in the hand, as planned
   Pose T_world_grasp = Pose::Identity();   ///< pick: the TCP at the grasp
   int grasp_candidates_tried = 0;

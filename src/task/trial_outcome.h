@@ -36,12 +36,11 @@ struct RegistrationRecord {
   int points = 0;          ///< points matched to the cell's surfaces
 };
 
-/// One call of the external component (external.command) for a view: what came back and how long it
-/// took. The answer itself is kept (grasps in the world frame) so that the record says what the
-/// component proposed.
+/// One call of the external component (external.command) for a view: what came back, how many
+/// grasps, and how long it took.
 struct ExternalCallRecord {
   double time = 0;            ///< [s] simulated, since the trial began
-  std::string result;         ///< answer, error, crash, timeout, not_protocol or cannot_start
+  std::string result;         ///< answer, error, crash, timeout, not_protocol, cannot_start or io_error
   std::string reason;         ///< for all but answer
   double write_seconds = 0;   ///< [s] wall: the view's images written
   double answer_seconds = 0;  ///< [s] wall: the request sent until the answer read (the component's own time, apart)

@@ -193,6 +193,12 @@ TEST(External, BadConfigurationIsExitTwoBeforeAnyTrial) {
     EXPECT_NE(r.out.find(k.says), std::string::npos) << k.set << ": " << r.out;
     EXPECT_FALSE(fs::exists(fs::path(out) / "trials.jsonl")) << k.set;
   }
+  // The segmentation given to a component nothing asks would mark every record an oracle run.
+  const auto r = testing_cli::runMinimanip("run experiments/clutter_pile.yaml --trials 1 --set progress=none --set external.oracle=true --out " +
+                                           (dir.path() / "oracle").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--set external.oracle"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("nothing asks the component"), std::string::npos) << r.out;
 }
 
 }  // namespace

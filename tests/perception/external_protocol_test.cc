@@ -71,6 +71,7 @@ TEST(ExternalProtocol, TheRequestSaysEverythingADetectorNeeds) {
   EXPECT_DOUBLE_EQ(j["camera"]["T_world_camera"][1][1].get<double>(), -1.0);
   EXPECT_DOUBLE_EQ(j["region"]["half_extents"][1].get<double>(), 0.2);
   EXPECT_DOUBLE_EQ(j["gripper"]["stroke"].get<double>(), 0.08);
+  EXPECT_DOUBLE_EQ(j["gripper"]["finger_margin"].get<double>(), 0.012);
   EXPECT_EQ(requestLine(r).find('\n'), std::string::npos) << "one line";
 }
 
