@@ -174,12 +174,13 @@ void TrialRecord::describe(RecordArchive& a) {
     if (d.reading() && o.external_calls.size() <= i) o.external_calls.resize(i + 1);
     ExternalCallRecord& k = o.external_calls[i];
     d.field("time", k.time, "s", "simulated, since the trial began");
-    d.field("result", k.result, "", "answer, error (the component's own: it found nothing), crash (its output ended), timeout (no answer within external.timeout), not_protocol (an answer that is not protocol version 1, or in another frame than external.frame), cannot_start, io_error (the harness could not write the images)");
+    d.field("result", k.result, "", "answer, error (the component's own: it found nothing), crash (its output ended), timeout (no answer within external.timeout), not_protocol (an answer that is not protocol version 1, or in another frame than external.frame), cannot_start, io_error (the harness could not write the images); in a replay also not_recorded (a call past the recorded ones)");
     d.field("reason", k.reason, "", "what happened, for all but answer (the perception's failure reason)");
     d.field("write_seconds", k.write_seconds, "s", "wall: the view's images written for the component");
     d.field("answer_seconds", k.answer_seconds, "s", "wall: the request sent until the answer read (the component's own time: not in the stage's compute_seconds nor in plan_pick_time)");
     d.field("grasps", k.grasps, "", "grasp candidates in the answer");
     d.field("grasps_on_objects", k.grasps_on_objects, "", "of them, those whose pads close on one perceived object (tried by the pick, grasp_type external)");
+    d.field("answer", k.answer, "", "results answer and error: the component's answer line as it came (minimanip render replays the trial from it, without the component)");
   }, "every call of the external component (grasp.source external; docs/external-components.md), in order");
   a.field("reported_total", o.reported_total, "", "ReportCompletion's total (-1: never reported)");
   size_t n_failures = o.failures.size();

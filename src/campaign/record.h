@@ -36,7 +36,7 @@ class RecordArchive {
   virtual bool reading() const { return false; }
 };
 
-constexpr int kTrialSchema = 14;  // 3: attempts, failure kinds crash and hang; 4: picks' offset; 5: forces, contacts; 6: picks' first_pass; 7: detections; 8: grasp selections, picks' grasp type and deviation; 9: ik_solver; 10: grasp attempts, object grades; 11: picks' place_turn; 12: grasps' tried[].turned; 13: oracle; 14: external_calls
+constexpr int kTrialSchema = 15;  // 3: attempts, failure kinds crash and hang; 4: picks' offset; 5: forces, contacts; 6: picks' first_pass; 7: detections; 8: grasp selections, picks' grasp type and deviation; 9: ik_solver; 10: grasp attempts, object grades; 11: picks' place_turn; 12: grasps' tried[].turned; 13: oracle; 14: external_calls; 15: external_calls' answer
 
 /// One trial as trials.jsonl holds it.
 struct TrialRecord {

@@ -24,13 +24,17 @@ using json = nlohmann::json;
 namespace {
 
 /// A trials.jsonl object without what wall-clock time decides (compute times, the cycle's totals
-/// that include them, worker attempts, log paths): what a replay must reproduce exactly.
+/// that include them, the external component's times, worker attempts, log paths): what a replay
+/// must reproduce exactly.
 json outcomeFields(json j) {
   for (const char* k : {"compute_time", "attempts", "bt_log"}) j.erase(k);
   if (j.contains("cycle"))
     for (const char* k : {"perception_time", "plan_pick_time", "plan_place_time", "return_home_time", "total_time"}) j["cycle"].erase(k);
   if (j.contains("stages"))
     for (json& st : j["stages"]) st.erase("compute_seconds");
+  if (j.contains("external_calls"))
+    for (json& c : j["external_calls"])
+      for (const char* k : {"write_seconds", "answer_seconds"}) c.erase(k);
   return j;
 }
 
@@ -108,6 +112,8 @@ RenderReplay renderTrial(const std::string& results_dir, uint64_t trial, const s
   for (const auto& f : fs::directory_iterator(trial_dir))
     if (f.path().filename() != FolderLock::kFileName) fs::remove_all(f.path());
   TrialRunner runner(e, cell, tree, trial_dir.string(), meta.value("date", "2000-01-01 00:00:00"));
+  // An external component is not asked again: its recorded answers are (the same requests, in order).
+  runner.replayExternal(fromJsonLine(recorded.dump(), (dir / "trials.jsonl").string()).o.external_calls);
   RenderSetup setup = setUpRendering(e);
   if (!setup.renderer) throw std::runtime_error("no renderer on this machine (see the message above)");
   runner.setRenderer(setup.renderer.get(), renders.string(), setup.options);

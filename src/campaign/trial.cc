@@ -30,6 +30,10 @@ TrialRunner::TrialRunner(const Experiment& e, const Cell& cell, const bt::TreeDo
 
 TrialRunner::~TrialRunner() = default;
 
+void TrialRunner::replayExternal(std::vector<ExternalCallRecord> calls) {
+  if (external_) external_->replay(std::move(calls));
+}
+
 void TrialRunner::setRenderer(Renderer* renderer, std::string dir, const RenderOptions& options) {
   renderer_ = renderer;
   render_dir_ = std::move(dir);
@@ -124,6 +128,7 @@ TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial
   context = &ctx;
   ctx.faults = faults.get();
   ctx.external = external_.get();
+  if (external_) external_->beginTrial();
   env_.ctx = &ctx;
   std::unique_ptr<bt::Tree> tree = factory_.instantiate(doc_);
   tree->rootBlackboard().set("place_target", bt::toAny(cell_.T_world_place_target));

@@ -58,6 +58,9 @@ class TrialRunner {
   /// Runs trial `trial` on `hw` (objects spawned). Returns its outcome; `bt_log` gets the .db3
   /// path when one was written.
   TrialOutcome run(Hardware& hw, SimWorld& world, uint64_t trial, std::string& bt_log);
+  /// A replay: the external component (if the tree asks one) answers from these recorded calls
+  /// instead of being started (ExternalComponent::replay).
+  void replayExternal(std::vector<ExternalCallRecord> calls);
   const TreeCost& cost() const { return cost_; }
   /// Renders the trials `options` asks for with `renderer` into `dir`/trial_<N>/ (null: none).
   void setRenderer(Renderer* renderer, std::string dir, const RenderOptions& options);

@@ -1,11 +1,13 @@
 #include "task/external_component.h"
 
+#include <signal.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <stdexcept>
 #include <system_error>
 
@@ -23,12 +25,32 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
+constexpr const char* kImageDirPrefix = "minimanip-external-";
+
+// Folders that processes no longer running left behind (a worker killed by the watchdog: SIGKILL
+// runs no destructor), named kImageDirPrefix + "<pid>-": removed. A folder whose pid runs again
+// (reused) is left for a later sweep.
+void removeOrphanImageDirs(const fs::path& base) {
+  std::error_code ec;
+  for (fs::directory_iterator it(base, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.rfind(kImageDirPrefix, 0) != 0) continue;
+    char* rest = nullptr;
+    const long pid = std::strtol(name.c_str() + std::strlen(kImageDirPrefix), &rest, 10);
+    if (pid <= 0 || !rest || *rest != '-') continue;
+    if (kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;
+    std::error_code ignored;
+    fs::remove_all(it->path(), ignored);
+  }
+}
+
 // A folder of this process's own for the images: under /dev/shm (memory) when there is one.
 fs::path makeImageDir() {
   std::error_code ec;
   const fs::path shm = "/dev/shm";
   const fs::path base = fs::is_directory(shm, ec) && access(shm.c_str(), W_OK) == 0 ? shm : fs::temp_directory_path();
-  std::string pattern = (base / "minimanip-external-XXXXXX").string();
+  removeOrphanImageDirs(base);
+  std::string pattern = (base / (kImageDirPrefix + std::to_string(getpid()) + "-XXXXXX")).string();
   if (!mkdtemp(pattern.data())) throw OutputError(pattern, errnoText(errno));
   return pattern;
 }
@@ -54,6 +76,7 @@ std::string ExternalComponent::stopChild() {
 }
 
 ExternalCall ExternalComponent::call(ExternalRequest& request, const Frame& frame) {
+  if (replaying_) return answerFromRecord(request);
   // Our own side failing (the images cannot be written: a full /dev/shm; a pipe that cannot be
   // polled) is a value too: that perception fails with the reason, and the next call starts afresh.
   try {
@@ -97,6 +120,8 @@ ExternalCall ExternalComponent::ask(ExternalRequest& request, const Frame& frame
     out.answer_seconds = secondsSince(t_answer);
     return out;
   };
+  request.id = next_id_++;
+  const std::string id = std::to_string(request.id);
   if (!child_) {
     try {
       child_ = std::make_unique<ChildProcess>(ChildSpec{options_.argv(), options_.cwd, stderr_log_});
@@ -105,8 +130,6 @@ ExternalCall ExternalComponent::ask(ExternalRequest& request, const Frame& frame
       return finish("cannot_start", std::string("the external component: ") + e.what());
     }
   }
-  request.id = next_id_++;
-  const std::string id = std::to_string(request.id);
   if (!child_->send(requestLine(request))) {
     const std::string how = stopChild();
     return finish("crash", "the external component ended before request " + id + " (" + how + ")");
@@ -130,23 +153,69 @@ ExternalCall ExternalComponent::ask(ExternalRequest& request, const Frame& frame
       stopChild();
       return finish("not_protocol", "the external component's answer to request " + id + " is longer than 64 MiB");
   }
+  if (!readAnswer(line, request, out)) stopChild();
+  out.answer_seconds = secondsSince(t_answer);
+  return out;
+}
+
+bool ExternalComponent::readAnswer(const std::string& line, const ExternalRequest& request, ExternalCall& out) {
+  const std::string id = std::to_string(request.id);
   std::string why;
+  out.answer = ExternalAnswer{};
+  out.line.clear();
   if (!parseAnswer(line, request, out.answer, why)) {
-    stopChild();
-    return finish("not_protocol", "the external component's answer to request " + id + " is not the protocol: " + why);
+    out.answer = ExternalAnswer{};
+    out.result = "not_protocol";
+    out.reason = "the external component's answer to request " + id + " is not the protocol: " + why;
+    return false;
   }
-  if (!out.answer.error.empty())
-    return finish("error", "the external component found nothing: " + out.answer.error.substr(0, 300));
+  if (!out.answer.error.empty()) {
+    out.result = "error";
+    out.reason = "the external component found nothing: " + out.answer.error.substr(0, 300);
+    out.line = line;
+    return true;
+  }
   ExternalFrame expected = ExternalFrame::kCamera;
   parseExternalFrame(options_.frame, expected);
   if (out.answer.frame != expected) {
-    stopChild();
     out.answer = ExternalAnswer{};
-    return finish("not_protocol", "the external component answered request " + id + " in the " +
-                                      (expected == ExternalFrame::kCamera ? "world" : "camera") + " frame; external.frame is " +
-                                      options_.frame);
+    out.result = "not_protocol";
+    out.reason = "the external component answered request " + id + " in the " + (expected == ExternalFrame::kCamera ? "world" : "camera") +
+                 " frame; external.frame is " + options_.frame;
+    return false;
   }
-  return finish("answer", "");
+  out.result = "answer";
+  out.reason.clear();
+  out.line = line;
+  return true;
+}
+
+void ExternalComponent::replay(std::vector<ExternalCallRecord> calls) {
+  stopChild();
+  replaying_ = true;
+  recorded_ = std::move(calls);
+  next_recorded_ = 0;
+}
+
+ExternalCall ExternalComponent::answerFromRecord(ExternalRequest& request) {
+  ExternalCall out;
+  request.id = next_id_++;
+  if (next_recorded_ >= recorded_.size()) {
+    out.result = "not_recorded";
+    out.reason = "a replay: the trial's record has no answer to request " + std::to_string(request.id) + " of the external component";
+    return out;
+  }
+  const ExternalCallRecord& r = recorded_[next_recorded_++];
+  if (r.result == "answer" || r.result == "error") {
+    // The same request (the same trial's view, the same id) reads the recorded line as it was read.
+    readAnswer(r.answer, request, out);
+  } else {
+    out.result = r.result;
+    out.reason = r.reason;
+  }
+  out.write_seconds = r.write_seconds;
+  out.answer_seconds = r.answer_seconds;
+  return out;
 }
 
 }  // namespace mm

@@ -11,9 +11,11 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "perception/external_protocol.h"
 #include "task/task_options.h"
+#include "task/trial_outcome.h"
 
 namespace mm {
 
@@ -29,6 +31,7 @@ struct ExternalCall {
   double write_seconds = 0;   ///< [s] wall: writing the images
   double answer_seconds = 0;  ///< [s] wall: the request sent until the answer read (the child's time and the pipe's)
   ExternalAnswer answer;      ///< result answer: in the world frame
+  std::string line;           ///< results answer and error: the answer line as it came
   bool ok() const { return result == "answer"; }
 };
 
@@ -40,21 +43,35 @@ class ExternalComponent {
   ExternalComponent(const ExternalComponent&) = delete;
   ExternalComponent& operator=(const ExternalComponent&) = delete;
 
+  /// A trial begins: request ids count from 1 again (a request is named by its trial and its id,
+  /// so a trial's requests and answers do not depend on what its worker ran before).
+  void beginTrial() { next_id_ = 1; }
   /// Asks for `request` (its id set here, its image paths filled in) on `frame`'s images: depth
   /// always, rgb when the frame has colour, labels when options.oracle and the frame has them.
   ExternalCall call(ExternalRequest& request, const Frame& frame);
+  /// A replay of a recorded trial (`minimanip render`): from now on each call is answered, in
+  /// order, by the trial's recorded calls (an answer line read again as it was read then; a failure
+  /// as recorded), and no component is started. A call past the recorded ones is result
+  /// not_recorded.
+  void replay(std::vector<ExternalCallRecord> calls);
   const ExternalOptions& options() const { return options_; }
   /// Children started so far (the first, and one after each failed call that ended one).
   int starts() const { return starts_; }
 
  private:
   ExternalCall ask(ExternalRequest& request, const Frame& frame);
+  ExternalCall answerFromRecord(ExternalRequest& request);
+  /// Reads `line`, the answer to `request`, into out (result answer, error or not_protocol).
+  bool readAnswer(const std::string& line, const ExternalRequest& request, ExternalCall& out);
   std::string stopChild();
   ExternalOptions options_;
   std::filesystem::path stderr_log_, image_dir_;
   std::unique_ptr<ChildProcess> child_;
   uint64_t next_id_ = 1;
   int starts_ = 0;
+  bool replaying_ = false;
+  std::vector<ExternalCallRecord> recorded_;
+  size_t next_recorded_ = 0;
 };
 
 }  // namespace mm

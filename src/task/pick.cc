@@ -129,6 +129,7 @@ Failure externalGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectS
   rec.write_seconds = call.write_seconds;
   rec.answer_seconds = call.answer_seconds;
   rec.grasps = static_cast<int>(call.answer.grasps.size());
+  rec.answer = call.line;
   // Each candidate under the perceived object its pads close on; the opening the component gives
   // (the pads' distance as the hand comes down) less the finger margin each side (the request's
   // gripper says it) is the width they close on.

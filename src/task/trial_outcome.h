@@ -46,6 +46,7 @@ struct ExternalCallRecord {
   double answer_seconds = 0;  ///< [s] wall: the request sent until the answer read (the component's own time, apart)
   int grasps = 0;             ///< candidates in the answer
   int grasps_on_objects = 0;  ///< of them, closing on one perceived object (tried by the pick)
+  std::string answer;         ///< results answer and error: the component's answer line as it came (a replay answers from it)
 };
 
 /// One object the robot let go of, and where it ended up.

@@ -3,6 +3,8 @@
 // client that crashes, hangs, answers garbage or in another frame is a recorded failure of that
 // perception and a fresh client answers the next; bad configuration is exit 2 before any trial.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -122,6 +124,34 @@ testing_cli::RunResult runExternal(const std::string& out, const std::string& se
                                    "--set objects.count_min=3 --set objects.count_max=3 " + sets + " --out " + out);
 }
 
+TEST(External, ImagesLeftByAKilledWorkerAreRemovedByTheNextComponent) {
+  const fs::path shm = "/dev/shm";
+  if (!fs::is_directory(shm) || access(shm.c_str(), W_OK) != 0) GTEST_SKIP() << "no writable /dev/shm here";
+  // A worker killed by SIGKILL runs no destructor: its folder stays, named by a pid now gone.
+  const pid_t gone = fork();
+  if (gone == 0) _exit(0);
+  ASSERT_GT(gone, 0);
+  waitpid(gone, nullptr, 0);
+  const fs::path orphan = shm / ("minimanip-external-" + std::to_string(gone) + "-test01");
+  const fs::path running = shm / ("minimanip-external-" + std::to_string(getpid()) + "-test02");
+  for (const fs::path& d : {orphan, running}) {
+    fs::create_directories(d);
+    std::ofstream(d / "depth.npy") << "left";
+  }
+  testing_cli::TempDir dir;
+  const Frame f = boxSeenFromAbove();
+  {
+    ExternalComponent c(client(), dir.path() / "stderr.log");
+    ExternalRequest req = requestFor(f);
+    EXPECT_TRUE(c.call(req, f).ok());
+    EXPECT_FALSE(fs::exists(orphan)) << "a folder of a process that ended is removed";
+    EXPECT_TRUE(fs::exists(running)) << "a running process's folder is left";
+    EXPECT_TRUE(fs::exists(req.depth));
+    EXPECT_EQ(req.depth.parent_path().filename().string().rfind("minimanip-external-" + std::to_string(getpid()) + "-", 0), 0u);
+  }
+  fs::remove_all(running);
+}
+
 TEST(External, ACampaignPicksWithTheReferenceClientsGrasps) {
   testing_cli::TempDir dir;
   const std::string out = (dir.path() / "run").string();
@@ -175,6 +205,37 @@ TEST(External, ACrashingAHangingAndALyingClientEachLeaveACompleteCampaign) {
                   f.failure.reason.find("external component") != std::string::npos;
     EXPECT_EQ(recorded, bad) << k.misbehave;
   }
+}
+
+TEST(External, ATrialRendersAgainFromItsRecordedAnswersWithoutTheClient) {
+  // The client is a copy that is gone by the time of the replay: had the replay started it, its
+  // calls would have crashed and the outcome differed.
+  testing_cli::TempDir dir;
+  const fs::path copy = dir.path() / "client.py";
+  fs::copy_file(fs::path(MINIMANIP_SOURCE_DIR) / "tools/external_grasps.py", copy);
+  const std::string out = (dir.path() / "run").string();
+  const auto r = runExternal(out, "--set 'external.command=/usr/bin/python3 " + copy.string() + " --misbehave crash --every 3'");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto trials = testing_cli::readTrials(out);
+  ASSERT_EQ(trials.size(), 1u);
+  const TrialRecord t = fromJsonLine(trials[0].dump(), "trials.jsonl");
+  int answers = 0, crashes = 0;
+  for (const ExternalCallRecord& c : t.o.external_calls) {
+    if (c.result == "answer") {
+      ++answers;
+      EXPECT_NE(c.answer.find("\"grasps\""), std::string::npos) << "the answer line is kept as it came: " << c.answer;
+    } else {
+      ++crashes;
+      EXPECT_EQ(c.result, "crash") << c.reason;
+      EXPECT_TRUE(c.answer.empty());
+    }
+  }
+  ASSERT_GE(answers, 2);
+  ASSERT_GE(crashes, 1);
+  fs::remove(copy);
+  const auto replay = testing_cli::runMinimanip("render " + out + " --trial 0 --set render.keyframes=end --set render.video=false");
+  ASSERT_EQ(replay.code, 0) << replay.out;
+  EXPECT_NE(replay.out.find("Replay matches trial 0"), std::string::npos) << replay.out;
 }
 
 TEST(External, BadConfigurationIsExitTwoBeforeAnyTrial) {
