@@ -56,6 +56,26 @@ struct RenderReplay {
 /// since) does not allow a replay.
 RenderReplay renderTrial(const std::string& results_dir, uint64_t trial, const std::vector<std::string>& render_sets);
 
+/// `minimanip dataset`: a campaign's camera views as a BOP dataset (render/bop_writer.h).
+struct DatasetOptions {
+  std::string results_dir;      ///< the campaign's results folder
+  std::string out_dir;          ///< empty: results_dir/bop
+  std::string split = "train";  ///< the images' folder in the dataset
+  std::vector<uint64_t> trials; ///< empty: every trial the campaign recorded, in order
+  int max_views = 0;            ///< stop after this many views (0: all)
+};
+struct DatasetWritten {
+  std::string dir, renderer;
+  int scenes = 0, views = 0, models = 0;
+  std::vector<uint64_t> differing;  ///< trials whose run again differed from their line in trials.jsonl
+};
+/// Runs the trials again from their seeds in this process (an external component's recorded
+/// answers read, not asked) and writes every image the robot's camera took, with the objects'
+/// true poses, masks and models, into a new (or previously written) dataset folder: one BOP scene
+/// per trial. InputError when the folder does not allow a replay, when the campaign's robot takes
+/// no camera image, or when the output folder holds something else.
+DatasetWritten writeDataset(const DatasetOptions& options);
+
 /// The summary table `run` prints.
 struct CampaignSummary;
 std::string summaryTable(const CampaignSummary& summary);

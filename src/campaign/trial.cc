@@ -117,6 +117,7 @@ TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial
       const unsigned kinds = (labels ? kDepth | kSegmentation : kDepth) | (external_ ? kRgb : 0u);
       frame = renderer_->render(world, renderer_->camera(world, name, width, height, e_.file), kinds);
       applyDepthNoise(frame, e_.perception.noise, camera_noise);
+      if (view_tap_) view_tap_(world, frame);
       return true;
     });
   Hardware& tapped = renders ? renders->wrap(backend, [&] { stages_ended(false); }) : backend;

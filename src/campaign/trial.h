@@ -4,6 +4,7 @@
 // .db3 when the campaign keeps this trial's log.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -61,6 +62,9 @@ class TrialRunner {
   /// A replay: the external component (if the tree asks one) answers from these recorded calls
   /// instead of being started (ExternalComponent::replay).
   void replayExternal(std::vector<ExternalCallRecord> calls);
+  /// Called with each camera image a trial takes (camera mode, a renderer set), as the sensor gave
+  /// it (its noise drawn), and the world at that moment: a dataset's views (BopWriter).
+  void setViewTap(std::function<void(const SimWorld&, const Frame&)> tap) { view_tap_ = std::move(tap); }
   const TreeCost& cost() const { return cost_; }
   /// Renders the trials `options` asks for with `renderer` into `dir`/trial_<N>/ (null: none).
   void setRenderer(Renderer* renderer, std::string dir, const RenderOptions& options);
@@ -77,6 +81,7 @@ class TrialRunner {
   bt::Factory factory_;
   TreeCost cost_;
   Renderer* renderer_ = nullptr;
+  std::function<void(const SimWorld&, const Frame&)> view_tap_;
   std::string render_dir_;
   RenderOptions render_;
   std::vector<std::string> rendered_;

@@ -162,6 +162,15 @@ int main(int argc, char** argv) {
   render->add_option("--set", render_sets, "render.KEY=VALUE: what to render (default: every stage's key frame "
                                            "in rgb, depth and segmentation with previews, and the video)");
 
+  mm::DatasetOptions dataset_opts;
+  CLI::App* dataset = app.add_subcommand("dataset", "a campaign's camera views, its trials run again from their seeds, as a BOP dataset "
+                                                     "(rgb, depth, masks, the objects' true poses and models; docs/datasets.md)");
+  dataset->add_option("results", dataset_opts.results_dir, "the campaign's results folder (camera mode)")->required();
+  dataset->add_option("--out", dataset_opts.out_dir, "the dataset's folder (default: RESULTS/bop; replaced if it holds a dataset)");
+  dataset->add_option("--split", dataset_opts.split, "the images' folder in the dataset")->capture_default_str();
+  dataset->add_option("--trial", dataset_opts.trials, "only these trials (default: every trial, in order)");
+  dataset->add_option("--views", dataset_opts.max_views, "stop after this many views (0: all)")->capture_default_str();
+
   std::string calib_experiment = "experiments/camera.yaml";
   std::vector<std::string> calib_sets;
   mm::CalibrateOptions calib;
@@ -196,9 +205,9 @@ int main(int argc, char** argv) {
       const std::string option = i > 1 && argv[i - 1][0] == '-' && arg[0] != '-' ? std::string(argv[i - 1]) : "argument " + std::to_string(i);
       mm::requireUtf8(arg, option, "'" + mm::escapeInvalidUtf8(arg.size() > 60 ? arg.substr(0, 60) + "..." : arg) + "'");
     }
-    const std::vector<std::string> commands = {"run", "check", "bench", "render", "calibrate", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc", "merge", "report", "gate", "gate-doc", "worker"};
+    const std::vector<std::string> commands = {"run", "check", "bench", "render", "dataset", "calibrate", "ik-bench", "plan-bench", "config-doc", "nodes-doc", "results-doc", "merge", "report", "gate", "gate-doc", "worker"};
     if (argc > 1 && argv[1][0] != '-' && std::find(commands.begin(), commands.end(), argv[1]) == commands.end())
-      throw mm::InputError(argv[1], "unknown command (expected run, check, bench, render, calibrate, merge, report, gate, ik-bench, plan-bench, config-doc, nodes-doc, results-doc or gate-doc; --help)");
+      throw mm::InputError(argv[1], "unknown command (expected run, check, bench, render, dataset, calibrate, merge, report, gate, ik-bench, plan-bench, config-doc, nodes-doc, results-doc or gate-doc; --help)");
     try {
       app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -237,6 +246,19 @@ int main(int argc, char** argv) {
       }
       std::cout << "Replay DIFFERS from trial " << render_trial << " in trials.jsonl:\n";
       for (const std::string& d : r.differences) std::cout << "  " << d << "\n";
+      return 1;
+    }
+    if (dataset->parsed()) {
+      const mm::DatasetWritten d = mm::writeDataset(dataset_opts);
+      std::cout << "Dataset: " << d.dir << "/ (BOP format: " << d.scenes << " scenes, " << d.views << " views, " << d.models
+                << " object models; rendered with " << d.renderer << ")\n";
+      if (d.differing.empty()) {
+        std::cout << "Every trial run again matches its line in trials.jsonl.\n";
+        return 0;
+      }
+      std::cout << "Trials run again that DIFFER from trials.jsonl (their views are not the campaign's):";
+      for (uint64_t t : d.differing) std::cout << " " << t;
+      std::cout << "\n";
       return 1;
     }
     if (gate_doc->parsed()) {

@@ -36,6 +36,24 @@ struct Renderer::Impl {
   }
   ~Impl() { release(); }
 
+  // Drops from the scene every geom whose segmentation label is not `label` (the others' order kept).
+  void keepOnly(const SimWorld& world, int label) {
+    const std::vector<unsigned char>& labels = world.geomLabels();
+    int kept = 0;
+    for (int i = 0; i < scene.ngeom; ++i) {
+      const mjvGeom& g = scene.geoms[i];
+      if (g.objtype == mjOBJ_GEOM && g.objid >= 0 && g.objid < static_cast<int>(labels.size()) &&
+          labels[static_cast<size_t>(g.objid)] == label)
+      {
+        scene.geoms[kept] = g;
+        scene.geoms[kept].segid = kept;  // the segmentation's colours number the geoms drawn
+        scene.geoms[kept].rgba[3] = 1;   // opaque: a transparent geom writes no depth
+        ++kept;
+      }
+    }
+    scene.ngeom = kept;
+  }
+
   // The near and far clipping planes from the cell: MuJoCo scales both by the model's extent
   // (near = znear * extent), and the extent covers every body at compile time, objects parked far
   // below the floor included; with them, nothing nearer than about a metre was drawn. Here the far
@@ -156,7 +174,7 @@ CameraModel Renderer::camera(const SimWorld& world, const std::string& name, int
   return c;
 }
 
-Frame Renderer::render(const SimWorld& world, const CameraModel& camera, unsigned kinds) {
+Frame Renderer::render(const SimWorld& world, const CameraModel& camera, unsigned kinds, int only_label) {
   Impl& I = *impl_;
   const mjModel* m = world.mujocoModel();
   mjData* d = world.mujocoData();
@@ -196,6 +214,7 @@ Frame Renderer::render(const SimWorld& world, const CameraModel& camera, unsigne
     I.scene.flags[mjRND_SEGMENT] = 0;
     I.scene.flags[mjRND_IDCOLOR] = 0;
     mjv_updateScene(m, d, &I.option, nullptr, &cam, mjCAT_ALL, &I.scene);
+    if (only_label >= 0) I.keepOnly(world, only_label);
     mjr_render(viewport, &I.scene, &I.context);
     mjr_readPixels((kinds & kRgb) ? I.rgb_scratch.data() : nullptr, (kinds & kDepth) ? I.depth_scratch.data() : nullptr,
                    viewport, &I.context);
@@ -218,6 +237,7 @@ Frame Renderer::render(const SimWorld& world, const CameraModel& camera, unsigne
     I.scene.flags[mjRND_SEGMENT] = 1;
     I.scene.flags[mjRND_IDCOLOR] = 1;
     mjv_updateScene(m, d, &I.option, nullptr, &cam, mjCAT_ALL, &I.scene);
+    if (only_label >= 0) I.keepOnly(world, only_label);
     mjr_render(viewport, &I.scene, &I.context);
     mjr_readPixels(I.rgb_scratch.data(), nullptr, viewport, &I.context);
     I.scene.flags[mjRND_SEGMENT] = 0;

@@ -42,8 +42,9 @@ class Renderer {
   CameraModel camera(const SimWorld& world, const std::string& name, int width, int height, const std::string& file,
                      const std::string& key = "render.camera") const;
   /// Renders the world as it is now through `camera` (its pose is re-read: a wrist camera moves).
-  /// `kinds`: a mask of ImageKind.
-  Frame render(const SimWorld& world, const CameraModel& camera, unsigned kinds);
+  /// `kinds`: a mask of ImageKind. `only_label` >= 0: only the geoms of that segmentation label are
+  /// drawn (an object alone: its whole silhouette, however hidden it is in the scene).
+  Frame render(const SimWorld& world, const CameraModel& camera, unsigned kinds, int only_label = -1);
 
  private:
   Renderer();

@@ -154,6 +154,77 @@ Pose SimWorld::tcpPose() const {
 
 int SimWorld::numObjects() const { return static_cast<int>(impl_->obj_body.size()); }
 
+Pose SimWorld::objectDrawnPose(int i) const {
+  const Impl& I = *impl_;
+  const int b = I.obj_body[i];
+  const mjtNum* x = I.d->xpos + 3 * b;
+  const mjtNum* q = I.d->xquat + 4 * b;
+  return makePose(Vec3(x[0], x[1], x[2]), Quat(q[0], q[1], q[2], q[3]));
+}
+
+TriangleMesh SimWorld::objectSurface(int i) const {
+  const Impl& I = *impl_;
+  const mjModel* m = I.m;
+  TriangleMesh out;
+  out.part = mj_id2name(m, mjOBJ_BODY, I.obj_body[i]);
+  auto add = [&](const std::vector<Vec3>& v, const std::vector<std::array<int, 3>>& f, const Pose& T_body_geom) {
+    const int base = static_cast<int>(out.vertices.size());
+    for (const Vec3& p : v) out.vertices.push_back(T_body_geom * p);
+    for (const auto& t : f) out.faces.push_back({base + t[0], base + t[1], base + t[2]});
+  };
+  for (int g = 0; g < m->ngeom; ++g) {
+    if (m->geom_bodyid[g] != I.obj_body[i] || m->geom_group[g] > 2) continue;  // mjvOption's default: groups 0-2 drawn
+    const mjtNum* q = m->geom_quat + 4 * g;
+    const Pose T = makePose(Vec3(m->geom_pos[3 * g], m->geom_pos[3 * g + 1], m->geom_pos[3 * g + 2]), Quat(q[0], q[1], q[2], q[3]));
+    const mjtNum* s = m->geom_size + 3 * g;
+    std::vector<Vec3> v;
+    std::vector<std::array<int, 3>> f;
+    switch (m->geom_type[g]) {
+      case mjGEOM_MESH: {
+        const int mesh = m->geom_dataid[g];
+        for (int k = 0; k < m->mesh_vertnum[mesh]; ++k) {
+          const float* p = m->mesh_vert + 3 * (m->mesh_vertadr[mesh] + k);
+          v.emplace_back(p[0], p[1], p[2]);
+        }
+        for (int k = 0; k < m->mesh_facenum[mesh]; ++k) {
+          const int* t = m->mesh_face + 3 * (m->mesh_faceadr[mesh] + k);
+          f.push_back({t[0], t[1], t[2]});
+        }
+        break;
+      }
+      case mjGEOM_BOX:
+        for (int k = 0; k < 8; ++k) v.emplace_back((k & 1 ? 1 : -1) * s[0], (k & 2 ? 1 : -1) * s[1], (k & 4 ? 1 : -1) * s[2]);
+        // Two triangles a face, counter-clockwise seen from outside: -x, +x, -y, +y, -z, +z.
+        f = {{0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}, {0, 1, 5}, {0, 5, 4},
+             {2, 6, 7}, {2, 7, 3}, {0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}};
+        break;
+      case mjGEOM_CYLINDER: {
+        constexpr int n = 64;  // sides: the polygon's edge is within 0.12% of the radius of the circle
+        for (int k = 0; k < n; ++k) {
+          const double a = 2 * M_PI * k / n;
+          v.emplace_back(s[0] * std::cos(a), s[0] * std::sin(a), -s[1]);
+          v.emplace_back(s[0] * std::cos(a), s[0] * std::sin(a), s[1]);
+        }
+        v.emplace_back(0, 0, -s[1]);
+        v.emplace_back(0, 0, s[1]);
+        for (int k = 0; k < n; ++k) {
+          const int a0 = 2 * k, a1 = a0 + 1, b0 = 2 * ((k + 1) % n), b1 = b0 + 1;
+          f.push_back({a0, b0, b1});
+          f.push_back({a0, b1, a1});
+          f.push_back({2 * n, b0, a0});
+          f.push_back({2 * n + 1, a1, b1});
+        }
+        break;
+      }
+      default:
+        throw std::runtime_error(out.part + ": a geom of MuJoCo type " + std::to_string(m->geom_type[g]) +
+                                 " has no surface here (objects are boxes, cylinders and meshes)");
+    }
+    add(v, f, T);
+  }
+  return out;
+}
+
 ObjectState SimWorld::object(int i) const {
   const Impl& I = *impl_;
   ObjectState o;

@@ -11,6 +11,7 @@
 #include "core/config.h"
 #include "core/geometry.h"
 #include "robot/robot_model.h"
+#include "robot/solid_mesh.h"
 #include "sim/object_catalogue.h"
 
 struct mjModel_;  // MuJoCo's model and data, named only for the renderer (render/)
@@ -117,6 +118,13 @@ class SimWorld {
   // Objects: those setObjects() put in the model; reset() parks them all at the scene's object_park.
   int numObjects() const;
   ObjectState object(int i) const;
+  /// Object i's surface as the renderer draws it (its geoms of groups 0-2: a mesh object's visual
+  /// mesh, a box's or cylinder's own shape, tessellated), in the object's frame (object(i)'s
+  /// T_world_object), triangles wound counter-clockwise seen from outside [m].
+  TriangleMesh objectSurface(int i) const;
+  /// Object i's pose as last drawn: its body's pose from the last kinematics (the renderer draws
+  /// from it), where object(i) reads the state after the step's integration.
+  Pose objectDrawnPose(int i) const;
   Vec3 objectVelocity(int i) const;     ///< linear [m/s]
   void setObjectPose(int i, const Pose& T_world_object);  ///< zero velocity
   void parkObject(int i);
