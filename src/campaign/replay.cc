@@ -105,6 +105,18 @@ CampaignAgain loadCampaignAgain(const std::string& results_dir, const std::vecto
   return c;
 }
 
+// Trial `trial` of campaign `c` run again by `runner` (an external component answering from the
+// trial's record, not asked again): where its outcome differs from its line (empty: it matches).
+std::vector<std::string> runAgain(const CampaignAgain& c, uint64_t trial, const RobotModel& robot, const Cell& cell, SimWorld& world,
+                                  TrialRunner& runner) {
+  const json& recorded = c.lines.at(trial);
+  runner.replayExternal(fromJsonLine(recorded.dump(), (c.dir / "trials.jsonl").string()).o.external_calls);
+  TrialRecord r = runOneTrial(c.e, robot, cell, world, runner, trial, c.dir);
+  std::vector<std::string> differences;
+  listDifferences(outcomeFields(recorded), outcomeFields(json::parse(toJsonLine(r))), "", differences);
+  return differences;
+}
+
 }  // namespace
 
 RenderReplay renderTrial(const std::string& results_dir, uint64_t trial, const std::vector<std::string>& render_sets) {
@@ -117,10 +129,8 @@ RenderReplay renderTrial(const std::string& results_dir, uint64_t trial, const s
   sets.push_back("render.trials=" + std::to_string(trial));
   const CampaignAgain c = loadCampaignAgain(results_dir, sets);
   const fs::path& dir = c.dir;
-  const auto line = c.lines.find(trial);
-  if (line == c.lines.end())
+  if (!c.lines.count(trial))
     throw InputError((dir / "trials.jsonl").string(), "no line for trial " + std::to_string(trial) + " (expected a trial this campaign ran)");
-  const json& recorded = line->second;
   const Experiment& e = c.e;
   const RobotModel robot = loadExperimentRobot(e);
   auto world = loadWorld(e, robot);
@@ -134,17 +144,14 @@ RenderReplay renderTrial(const std::string& results_dir, uint64_t trial, const s
   for (const auto& f : fs::directory_iterator(trial_dir))
     if (f.path().filename() != FolderLock::kFileName) fs::remove_all(f.path());
   TrialRunner runner(e, cell, tree, trial_dir.string(), c.meta.value("date", "2000-01-01 00:00:00"));
-  // An external component is not asked again: its recorded answers are (the same requests, in order).
-  runner.replayExternal(fromJsonLine(recorded.dump(), (dir / "trials.jsonl").string()).o.external_calls);
   RenderSetup setup = setUpRendering(e);
   if (!setup.renderer) throw std::runtime_error("no renderer on this machine (see the message above)");
   runner.setRenderer(setup.renderer.get(), renders.string(), setup.options);
-  TrialRecord r = runOneTrial(e, robot, cell, *world, runner, trial, dir);
   RenderReplay out;
+  out.differences = runAgain(c, trial, robot, cell, *world, runner);
   out.dir = trialRenderDir(renders.string(), trial);
   out.files = runner.rendered();
   out.renderer = setup.renderer->description();
-  listDifferences(outcomeFields(recorded), outcomeFields(json::parse(toJsonLine(r))), "", out.differences);
   out.matches = out.differences.empty();
   return out;
 }
@@ -212,14 +219,10 @@ DatasetWritten writeDataset(const DatasetOptions& o) {
   });
   for (uint64_t t : trials) {
     if (o.max_views > 0 && writer.views() >= o.max_views) break;
-    const json& recorded = c.lines.at(t);
     writer.beginScene(t);
-    runner.replayExternal(fromJsonLine(recorded.dump(), (c.dir / "trials.jsonl").string()).o.external_calls);
-    TrialRecord r = runOneTrial(e, robot, cell, *world, runner, t, c.dir);
+    const bool differs = !runAgain(c, t, robot, cell, *world, runner).empty();
     if (!cannot_write.empty()) throw OutputError(out.dir, cannot_write);
-    std::vector<std::string> diff;
-    listDifferences(outcomeFields(recorded), outcomeFields(json::parse(toJsonLine(r))), "", diff);
-    if (!diff.empty()) out.differing.push_back(t);
+    if (differs) out.differing.push_back(t);
   }
   writer.finish();
   out.scenes = writer.scenes();
