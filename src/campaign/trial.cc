@@ -7,6 +7,7 @@
 #include "bt/sqlite_log.h"
 #include "core/error.h"
 #include "perception/calibration.h"
+#include "perception/model_pose.h"
 #include "bt/trial_runner.h"
 #include "render/image_io.h"
 #include "render/renderer.h"
@@ -210,6 +211,26 @@ Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& worl
     const ObjectKind* kind = c.spawn.loaded.find(k);
     if (kind->shape == ObjectShape::kMesh) c.perception.unknown_objects = true;
     c.perception.shapes.push_back({kind->name, kind->half_size, kind->mass, kind->shape});
+  }
+  // Known objects: the mesh kinds' models (their visual meshes, symmetries, collision pieces and
+  // mass: what a real cell holds of its parts), their point-pair tables built once per cell.
+  if (e.perception.known_models) {
+    if (e.perception.mode != PerceptionMode::kCamera)
+      throw InputError(e.file, "perception.known_models: expected perception.mode camera (the models pose what the camera sees)");
+    std::vector<std::shared_ptr<const ObjectModel>> models;
+    for (const std::string& k : c.spawn.kinds) {
+      const ObjectKind* kind = c.spawn.loaded.find(k);
+      if (kind->shape != ObjectShape::kMesh) continue;
+      auto m = std::make_shared<ObjectModel>(
+          ObjectModel::fromMesh(kind->name, kind->solid->visual_vertices, kind->solid->visual_faces, kind->symmetries));
+      m->pieces = kind->solid->pieces, m->half_size = kind->half_size, m->mass = kind->mass;
+      models.push_back(std::move(m));
+    }
+    if (models.empty())
+      throw InputError(e.file, "perception.known_models: expected mesh or URDF kinds among objects.kinds (the models come from their meshes)");
+    ModelPoseOptions mo;
+    mo.depth_sigma_k = e.perception.noise.k;
+    c.perception.models = std::make_shared<const ModelPoseEstimator>(std::move(models), mo);
   }
   c.perception.crop_half = bin_half;
   // What the sensor looks at rises to three of the tallest kind (a pile stacks them), unless given.

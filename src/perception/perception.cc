@@ -36,6 +36,10 @@ void PerceptionOptions::declare(ConfigArchive& a) {
           "camera mode, objects with no model: depth: the depth image cut into segments (supervoxels and LCCP); labels: an "
           "oracle, the renderer's per-object labels cut the same points into one segment per object (no real camera has "
           "them: with depth_noise 0 and edge_dropout 0 it separates what perception loses from what grasping loses)");
+  a.value("known_models", known_models,
+          "camera mode: the mesh kinds are known objects (their meshes the CAD models a real cell has): each depth segment is "
+          "posed by them (point-pair features, ICP, checked against the depth image; perception/model_pose.h) and grasped as the "
+          "model; a segment no model explains is an unknown object; false: every mesh object is unknown (its segment's columns)");
   a.value("edge_dropout", noise.edge_dropout, {0.0, 1.0}, "",
           "camera mode: the chance a pixel at a depth edge (its 3x3 neighbourhood spanning more than 1 cm) has no depth, as stereo matching fails there");
 }

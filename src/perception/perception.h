@@ -2,6 +2,7 @@
 // truth from the simulator (optionally with Gaussian noise), and a camera's depth image
 // (perception/camera_perception.h).
 #pragma once
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -11,6 +12,8 @@
 #include "perception/camera_perception.h"
 
 namespace mm {
+
+class ModelPoseEstimator;  // perception/model_pose.h
 
 enum class PerceptionMode { kHardcoded, kGroundTruth, kCamera };
 /// Where camera mode's segments of objects with no model come from.
@@ -49,6 +52,11 @@ struct PerceptionOptions {
   /// The depth cut into segments (segmentDepth); or an oracle's, the renderer's per-object labels
   /// (segmentLabels), which no real camera gives: it measures what segmentation loses.
   SegmentationSource segmentation = SegmentationSource::kDepth;
+  /// The mesh kinds are known objects, their meshes the CAD models a real cell's robot has: camera
+  /// mode poses each depth segment by them (perception/model_pose.h) before it takes the segment
+  /// for an unknown object (key known_models).
+  bool known_models = false;
+  std::shared_ptr<const ModelPoseEstimator> models;  ///< the kinds' models, when known_models (the campaign builds it)
 };
 
 /// True when the robot knows the objects only as the depth's segments (camera mode, no model):

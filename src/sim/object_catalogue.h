@@ -40,6 +40,9 @@ struct ObjectKind {
   Vec3 scale = Vec3::Ones();                              ///< mesh kinds: the file's units to metres, per axis
   std::shared_ptr<const ObjectSolid> solid;               ///< mesh kinds: the solid read from the file
   std::string grade;                                      ///< a generated object's shape grade (sim/object_generator.h); "" for the catalogue's
+  /// Mesh and URDF kinds: the rotations about the object's frame that map its visual mesh onto
+  /// itself, declared (`symmetries`) and closed into their group, identity first (core/symmetry.h).
+  std::vector<Mat3> symmetries{Mat3::Identity()};
 };
 
 struct ObjectCatalogue {

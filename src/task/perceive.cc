@@ -11,6 +11,7 @@
 #include "planning/chomp.h"
 #include "planning/collision.h"
 #include "perception/cell_registration.h"
+#include "perception/model_pose.h"
 #include "perception/segmentation.h"
 #include "planning/time_parameterization.h"
 #include "sim/hardware.h"
@@ -137,13 +138,33 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
     }
   }
   CameraPerceptionResult r;
+  std::vector<int> posed_by;  // each detection's model (known_models), or -1: a segment's columns
   if (o.unknown_objects) {  // no model: each segment of the depth, as the columns under its points
     SegmentationOptions so;
     so.T_world_region = o.T_world_crop;
     so.region_half = o.crop_half;
     so.region_height = o.crop_height;
     const Segmentation segments = o.segmentation == SegmentationSource::kLabels ? segmentLabels(frame, so) : segmentDepth(frame, so);
-    for (const Segment& s : segments.segments) r.detections.push_back({segmentObject(s, o.T_world_crop)});
+    for (const Segment& s : segments.segments) {
+      // Known objects: the segment posed by their models, and known as the model it is.
+      if (o.known_models && o.models) {
+        const ModelPose mp = o.models->estimate(frame, s);
+        if (mp.ok) {
+          const ObjectModel& m = *o.models->models()[static_cast<size_t>(mp.model)];
+          ObjectState ob;
+          ob.T_world_object = mp.T_world_object;
+          ob.shape = ObjectShape::kMesh;
+          ob.half_size = m.half_size;
+          ob.mass = m.mass;
+          ob.pieces = m.pieces;
+          r.detections.push_back({ob});
+          posed_by.push_back(mp.model);
+          continue;
+        }
+      }
+      r.detections.push_back({segmentObject(s, o.T_world_crop)});
+      posed_by.push_back(-1);
+    }
     if (ctx.keep_view) {  // for a picture (render.images: segments)
       auto labels = std::make_shared<std::vector<uint16_t>>(frame.depth.size(), 0);
       for (size_t k = 0; k < segments.segments.size(); ++k)
@@ -184,11 +205,14 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
     for (const ObjectState& t : ctx.hw.objects())
       if (t.index != ctx.held_truth) truth.push_back(t);
     std::vector<char> taken(truth.size(), 0);
-    for (const ObjectState& seen : p.objects) {
+    for (size_t d = 0; d < p.objects.size(); ++d) {
+      const ObjectState& seen = p.objects[d];
+      const int model = d < posed_by.size() ? posed_by[d] : -1;
+      const bool segment = o.unknown_objects && model < 0;
       int best = -1;
       // A model's detection is matched within 3 cm of its object; a segment's box, within its
       // footprint's half diagonal (its centre is its points', not the object's).
-      double best_dist = o.unknown_objects ? std::max(0.03, seen.half_size.head<2>().norm()) : 0.03;
+      double best_dist = segment ? std::max(0.03, seen.half_size.head<2>().norm()) : 0.03;
       for (size_t i = 0; i < truth.size(); ++i) {
         const double dist = (truth[i].T_world_object.translation() - seen.T_world_object.translation()).norm();
         if (!taken[i] && dist < best_dist) best = static_cast<int>(i), best_dist = dist;
@@ -201,10 +225,25 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
       } else {
         taken[static_cast<size_t>(best)] = 1;
         const ObjectState& t = truth[static_cast<size_t>(best)];
-        const PoseError e = poseError(seen.T_world_object, t.T_world_object, t.half_size, t.shape);
         rec.object = t.index;
-        rec.centre_error = e.centre, rec.rotation_error = e.rotation, rec.mssd = e.mssd;
-        if (o.unknown_objects) rec.rotation_error = rec.mssd = -1;  // a segment's columns have no orientation of the object's
+        if (model >= 0) {
+          // Posed by a model: BOP's MSSD over the model's symmetries, when it is the object's own
+          // (else the pose has no error to speak of: -1, as a false one's).
+          const ObjectModel& m = *o.models->models()[static_cast<size_t>(model)];
+          rec.centre_error = (seen.T_world_object.translation() - t.T_world_object.translation()).norm();
+          rec.rotation_error = rec.mssd = -1;
+          if (t.pieces == m.pieces) {
+            rec.mssd = mssd(m, seen.T_world_object, t.T_world_object);
+            double angle = M_PI;
+            for (const Mat3& S : m.symmetries)
+              angle = std::min(angle, angleBetween(seen.T_world_object.linear(), t.T_world_object.linear() * S));
+            rec.rotation_error = angle;
+          }
+        } else {
+          const PoseError e = poseError(seen.T_world_object, t.T_world_object, t.half_size, t.shape);
+          rec.centre_error = e.centre, rec.rotation_error = e.rotation, rec.mssd = e.mssd;
+          if (segment) rec.rotation_error = rec.mssd = -1;  // a segment's columns have no orientation of the object's
+        }
         ctx.truth_of[seen.index] = t.index;
       }
       ctx.out.detections.push_back(rec);

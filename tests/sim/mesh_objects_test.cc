@@ -227,6 +227,18 @@ TEST(MeshObjects, BadMeshKindsAreExitTwoNamingTheFile) {
   r = run("    shape: mesh\n    mesh: open.obj\n    size: [0.05, 0.05, 0.05]\n    mass: 0.1\n");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_THAT(r.out, HasSubstr("from its file"));
+  // Declared symmetries the mesh does not have, or that generate no finite group.
+  const std::string hex = std::string(std::filesystem::current_path() / "scenes/meshes/hex_prism.obj");
+  r = run("    shape: mesh\n    mesh: " + hex + "\n    scale: 0.001\n    mass: 0.1\n    symmetries: [{axis: [0, 0, 1], degrees: 45}]\n");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("objects.yaml:"));
+  EXPECT_THAT(r.out, HasSubstr("does not map the mesh onto itself"));
+  r = run("    shape: mesh\n    mesh: " + hex + "\n    scale: 0.001\n    mass: 0.1\n    symmetries: [{axis: [0, 0, 1], degrees: 59}]\n");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("more than 128"));
+  r = run("    shape: mesh\n    mesh: " + hex + "\n    scale: 0.001\n    mass: 0.1\n    symmetries: [{axis: [0, 0, 0], degrees: 60}]\n");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("non-zero"));
 }
 
 }  // namespace

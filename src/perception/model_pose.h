@@ -1,0 +1,123 @@
+// Known objects' 6D poses in a depth view, from their models (CAD meshes), in three steps:
+//   hypotheses  point-pair features (Drost, Ulrich, Navab, Ilic, "Model Globally, Match Locally:
+//               Efficient and Robust 3D Object Recognition", CVPR 2010) of each model voted over
+//               one segment's points, the votes clustered up to the model's symmetries; our own
+//               (OpenCV contrib's surface_matching trains a 2,400-point model in 48 s here, and
+//               clusters with no symmetries: docs/design/pose-estimation.md);
+//   refinement  each hypothesis aligned to the segment's points by point-to-plane ICP with
+//               projective association (the model drawn at the pose: each pixel's observed point
+//               paired with the model's surface at that pixel; Rusinkiewicz and Levoy, "Efficient
+//               Variants of the ICP Algorithm", 3DIM 2001);
+//   verification the model drawn where the refined pose puts it (a CPU z-buffer of its triangles)
+//               against what the camera saw: pixels where the drawn and seen depths agree, where
+//               the camera sees past the model or the segment shows what the model does not cover
+//               (both contradict the pose), and where something else stands in front (no evidence).
+// The best-verified pose of any model wins; a segment no model explains well enough keeps no pose
+// (it stays an unknown object). Reads only the frame's depth and camera and the segment's pixels:
+// nothing of the simulator. One thread; the same input gives the same pose.
+#pragma once
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/camera.h"
+#include "core/geometry.h"
+#include "core/symmetry.h"
+
+namespace mm {
+
+struct Segment;  // perception/segmentation.h
+
+/// A known object's model: its surface in the object's frame, and its symmetries.
+struct ObjectModel {
+  std::string name;
+  std::vector<Vec3> vertices;               ///< [m] the object's frame
+  std::vector<std::array<int, 3>> faces;    ///< triangles, outward by the right-hand rule
+  std::vector<Mat3> symmetries{Mat3::Identity()};  ///< the rotations mapping it onto itself: a group, identity first
+  double diameter = 0;                      ///< [m] the largest distance between two of its vertices
+  // What the robot knows of the kind besides its surface (its item master data): to plan and grasp
+  // with the object once posed.
+  std::shared_ptr<const std::vector<ConvexPiece>> pieces;  ///< collision: its convex pieces, the object's frame
+  Vec3 half_size = Vec3::Zero();            ///< [m] its pieces' bounding box
+  double mass = 0;                          ///< [kg]
+
+  /// A model of the triangles given (turned outward if the mesh's signed volume is negative), its
+  /// diameter computed; `generators` closed into their group (core/symmetry.h).
+  static ObjectModel fromMesh(std::string name, std::vector<Vec3> vertices, std::vector<std::array<int, 3>> faces,
+                              const std::vector<Mat3>& generators = {});
+};
+
+/// BOP's pose errors (Hodaň et al., "BOP Challenge 2020 on 6D Object Localization", ECCVW 2020):
+/// MSSD [m], the largest distance of a model vertex between the two poses, minimised over the
+/// model's symmetries; MSPD [px], the same of their projections into `cam`'s image.
+double mssd(const ObjectModel& m, const Pose& estimate, const Pose& truth);
+double mspd(const ObjectModel& m, const Pose& estimate, const Pose& truth, const CameraModel& cam);
+
+/// The model alone drawn at `T_world_object` into `cam`'s image, over the pixels [u0, u1) x [v0, v1):
+/// depth [m] (0 where it does not cover) and the face seen at each pixel (-1: none), row-major
+/// over the window. Back faces are culled; the nearest face wins.
+struct ModelDrawing {
+  int u0 = 0, v0 = 0, width = 0, height = 0;
+  std::vector<float> depth;
+  std::vector<int> face;
+  float at(int u, int v) const { return depth[static_cast<size_t>(v - v0) * width + (u - u0)]; }
+};
+ModelDrawing drawModel(const ObjectModel& m, const Pose& T_world_object, const CameraModel& cam, int u0, int v0, int u1, int v1);
+/// The pixel window the model covers at `T_world_object` (its vertices' projections, a pixel of
+/// margin), clipped to the image; empty (u1 <= u0) when it is not in front of the camera.
+std::array<int, 4> modelWindow(const ObjectModel& m, const Pose& T_world_object, const CameraModel& cam);
+
+struct ModelPoseOptions {
+  // Point-pair features (lengths relative to each model's diameter).
+  double model_sampling = 0.04;   ///< the model's points thinned to this spacing
+  double distance_step = 0.05;    ///< the pair distance's bin
+  int angle_steps = 30;           ///< the angles' bins over a turn
+  double scene_sampling = 0.04;   ///< the segment's points thinned to this spacing ...
+  double scene_reference = 0.2;   ///< ... and this share of them reference points
+  double normal_radius = 0.006;   ///< [m] a point's normal: the plane fitted to its neighbours this near (at least 1.5 spacings)
+  double edge_clearance = 0.006;  ///< [m] the model's points this near a sharp edge left out (the camera's normals bend round it)
+  int bucket_cap = 64;            ///< a pair's bin is read at most at this many of its entries, evenly spaced (0: all)
+  int hypotheses = 12;            ///< the best-voted poses of each model refined and verified
+  // Refinement.
+  int icp_iterations = 12;
+  double icp_reject = 0.01;       ///< [m] pairs further apart than this are left out
+  // Verification: drawn and seen depth agree within agree + depth_sigma_k z^2 * 3.
+  double agree = 0.004;           ///< [m]
+  double depth_sigma_k = 0.0015;  ///< the sensor's depth noise: sigma = k z^2 [1/m]
+  double min_score = 0.6;         ///< the best pose's score must reach this, else no pose
+};
+
+struct ModelPose {
+  bool ok = false;
+  int model = -1;                         ///< index into the estimator's models
+  Pose T_world_object = Pose::Identity();
+  /// Verification: agreeing / (agreeing + contradicting) pixels, where the segment's pixels the
+  /// model leaves uncovered contradict it too.
+  double score = 0;
+  int agree = 0, contradict = 0;
+  int hypotheses = 0;                     ///< poses verified (every model's)
+  double seconds = 0;                     ///< wall clock (benchmarks print it; nothing decides by it)
+  std::string reason;                     ///< why no pose (when !ok)
+};
+
+/// The models' point-pair tables are built once; estimate() is const (and safe from many threads).
+class ModelPoseEstimator {
+ public:
+  explicit ModelPoseEstimator(std::vector<std::shared_ptr<const ObjectModel>> models, const ModelPoseOptions& o = {});
+  ~ModelPoseEstimator();
+  ModelPoseEstimator(const ModelPoseEstimator&) = delete;
+  ModelPoseEstimator& operator=(const ModelPoseEstimator&) = delete;
+
+  const std::vector<std::shared_ptr<const ObjectModel>>& models() const;
+  /// The pose of the object seen as `segment` (its pixels and points) in `frame` (its depth and camera).
+  ModelPose estimate(const Frame& frame, const Segment& segment) const;
+  /// Verification of one pose of model `model` (as estimate() scores its hypotheses).
+  ModelPose verify(const Frame& frame, const Segment& segment, int model, const Pose& T_world_object) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mm
