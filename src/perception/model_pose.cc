@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <stdexcept>
 #include <unordered_map>
 
 #include <Eigen/Cholesky>
@@ -92,10 +93,11 @@ ModelDrawing drawModel(const ObjectModel& m, const Pose& T_world_object, const C
     const double uc = cam.fx * c.x() / c.z() + cam.cx, vc = cam.fy * c.y() / c.z() + cam.cy;
     const double area = (ub - ua) * (vc - va) - (uc - ua) * (vb - va);
     if (std::abs(area) < 1e-12) continue;
-    const int ulo = std::max(u0, static_cast<int>(std::ceil(std::min({ua, ub, uc}))));
-    const int uhi = std::min(u1 - 1, static_cast<int>(std::floor(std::max({ua, ub, uc}))));
-    const int vlo = std::max(v0, static_cast<int>(std::ceil(std::min({va, vb, vc}))));
-    const int vhi = std::min(v1 - 1, static_cast<int>(std::floor(std::max({va, vb, vc}))));
+    // Clipped to the window as doubles (a pose far off projects anywhere; no int overflows).
+    const int ulo = static_cast<int>(std::ceil(std::clamp(std::min({ua, ub, uc}), static_cast<double>(u0), static_cast<double>(u1))));
+    const int uhi = static_cast<int>(std::floor(std::clamp(std::max({ua, ub, uc}), static_cast<double>(u0) - 1, static_cast<double>(u1 - 1))));
+    const int vlo = static_cast<int>(std::ceil(std::clamp(std::min({va, vb, vc}), static_cast<double>(v0), static_cast<double>(v1))));
+    const int vhi = static_cast<int>(std::floor(std::clamp(std::max({va, vb, vc}), static_cast<double>(v0) - 1, static_cast<double>(v1 - 1))));
     for (int v = vlo; v <= vhi; ++v)
       for (int u = ulo; u <= uhi; ++u) {
         const double w0 = ((ub - u) * (vc - v) - (uc - u) * (vb - v)) / area;
@@ -205,6 +207,7 @@ class PointPairModel {
   PointPairModel(std::vector<Oriented> points, double diameter, double distance_step, int angle_steps, int bucket_cap)
       : points_(std::move(points)), diameter_(diameter), distance_step_(distance_step * diameter), angle_steps_(angle_steps),
         bucket_cap_(bucket_cap) {
+    if (angle_steps_ < 4 || angle_steps_ > 126) throw std::invalid_argument("ModelPoseOptions::angle_steps: expected 4 to 126 (6 bits a half turn)");
     for (size_t r = 0; r < points_.size(); ++r) {
       const Pose T = toOrigin(points_[r]);
       for (size_t i = 0; i < points_.size(); ++i) {
@@ -222,7 +225,7 @@ class PointPairModel {
   // reference, the model point and rotation about its normal most voted; its pose and votes.
   struct Vote {
     Pose T_scene_model;
-    double votes = 0;
+    int votes = 0;
   };
   std::vector<Vote> vote(const std::vector<Oriented>& scene, int reference_every) const {
     std::vector<Vote> out;
@@ -408,6 +411,9 @@ struct ModelPoseEstimator::Impl {
           A += J * J.transpose(), b += J * r, ++pairs;
         }
       if (pairs < 12) break;
+      // Damped: where the seen surface leaves a direction free (one plane, or faces all parallel
+      // to an axis), the step along it stays near zero instead of following rounding noise.
+      A.diagonal().array() += 1e-6 * A.trace() / 6;
       const Eigen::Matrix<double, 6, 1> x = A.ldlt().solve(-b);
       if (!x.allFinite()) break;
       const Mat3 dR = expSO3(x.head<3>());
@@ -425,7 +431,8 @@ struct ModelPoseEstimator::Impl {
     const CameraModel& cam = frame.camera;
     ModelPose r;
     r.model = k, r.T_world_object = T;
-    const std::array<int, 4> w = modelWindow(m, T, cam);
+    std::array<int, 4> w = modelWindow(m, T, cam);
+    if (w[2] <= w[0] || w[3] <= w[1]) w = {mask.u0, mask.v0, mask.u1, mask.v1};  // not in front of the camera: the segment's window
     const int u0 = std::min(w[0], mask.u0), v0 = std::min(w[1], mask.v0), u1 = std::max(w[2], mask.u1), v1 = std::max(w[3], mask.v1);
     const ModelDrawing d = drawModel(m, T, cam, u0, v0, u1, v1);
     for (int v = v0; v < v1; ++v)
@@ -475,17 +482,19 @@ ModelPose ModelPoseEstimator::estimate(const Frame& frame, const Segment& segmen
   const auto t0 = std::chrono::steady_clock::now();
   const Impl& I = *impl_;
   ModelPose best;
-  best.reason = "no model";
+  best.reason = "no point pair of the segment matches any model's";
   const SegmentMask mask = maskOf(segment, frame.camera.width);
   Vec3 origin = Vec3::Zero();  // ICP turns the pose about the segment's centroid
   for (const Vec3& p : segment.points) origin += p;
   if (!segment.points.empty()) origin /= static_cast<double>(segment.points.size());
   int verified = 0;
+  bool enough_points = false;
   for (size_t k = 0; k < I.models.size(); ++k) {
     const ObjectModel& m = *I.models[k];
     const double spacing = I.o.scene_sampling * m.diameter;
     const std::vector<Oriented> scene = thin(I.sceneCloud(frame, mask, 0.5 * spacing, std::max(I.o.normal_radius, 1.5 * spacing)), spacing);
     if (scene.size() < 10) continue;
+    enough_points = true;
     // The references' votes clustered (within a tenth of the diameter and 15 degrees, up to the
     // model's symmetries), the clusters by their votes.
     std::vector<PointPairModel::Vote> votes = I.ppf[k].vote(scene, std::max(1, static_cast<int>(std::lround(1 / I.o.scene_reference))));
@@ -517,12 +526,14 @@ ModelPose ModelPoseEstimator::estimate(const Frame& frame, const Segment& segmen
   best.ok = best.model >= 0 && best.score >= I.o.min_score;
   if (!best.ok && best.model >= 0) {
     char buf[160];
-    std::snprintf(buf, sizeof buf, "no model explains the segment: the best, %s, agrees with %.0f%% of the pixels (at least %.0f%% needed)",
+    std::snprintf(buf, sizeof buf, "no model explains the segment: the best, %s, agrees with %.0f%% of the pixels that tell (at least %.0f%% needed)",
                   I.models[static_cast<size_t>(best.model)]->name.c_str(), 100 * best.score, 100 * I.o.min_score);
     best.reason = buf;
   } else if (best.ok) {
     best.reason.clear();
-  } else if (verified == 0) {
+  } else if (verified > 0) {
+    best.reason = "no pose of any model agrees with a pixel of the segment";
+  } else if (!enough_points) {
     best.reason = "too few points in the segment for any model";
   }
   best.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

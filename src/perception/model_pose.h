@@ -13,8 +13,8 @@
 //               the camera sees past the model or the segment shows what the model does not cover
 //               (both contradict the pose), and where something else stands in front (no evidence).
 // The best-verified pose of any model wins; a segment no model explains well enough keeps no pose
-// (it stays an unknown object). Reads only the frame's depth and camera and the segment's pixels:
-// nothing of the simulator. One thread; the same input gives the same pose.
+// (it stays an unknown object). Reads only the frame's depth and camera and the segment's pixels
+// and points: nothing of the simulator. One thread; the same input gives the same pose.
 #pragma once
 #include <array>
 #include <memory>
@@ -75,9 +75,9 @@ struct ModelPoseOptions {
   int angle_steps = 30;           ///< the angles' bins over a turn
   double scene_sampling = 0.04;   ///< the segment's points thinned to this spacing ...
   double scene_reference = 0.2;   ///< ... and this share of them reference points
-  double normal_radius = 0.006;   ///< [m] a point's normal: the plane fitted to its neighbours this near (at least 1.5 spacings)
+  double normal_radius = 0.006;   ///< [m] a point's normal: the plane fitted to its neighbours this near (or 1.5 spacings, if more)
   double edge_clearance = 0.006;  ///< [m] the model's points this near a sharp edge left out (the camera's normals bend round it)
-  int bucket_cap = 64;            ///< a pair's bin is read at most at this many of its entries, evenly spaced (0: all)
+  int bucket_cap = 64;            ///< a pair's bin of n entries is read every floor(n / bucket_cap)-th: cap to 2 cap - 1 entries (0: all)
   int hypotheses = 12;            ///< the best-voted poses of each model refined and verified
   // Refinement.
   int icp_iterations = 12;
