@@ -42,6 +42,17 @@ namespace mm {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
+namespace {
+
+// A rate with its Wilson interval and its count: "97.5% [95% CI 93.1, 99.2] of 120 attempts".
+std::string rateText(const Rate& r, const char* of) {
+  return r.n == 0 ? std::string("n/a (none)")
+                  : fixedText(100 * r.value, 1) + "% [95% CI " + fixedText(100 * r.ci95[0], 1) + ", " + fixedText(100 * r.ci95[1], 1) +
+                        "] of " + std::to_string(r.n) + of;
+}
+
+}  // namespace
+
 std::string summaryTable(const CampaignSummary& s) {
   const long n = s.trials;
   std::ostringstream t;
@@ -91,6 +102,13 @@ std::string summaryTable(const CampaignSummary& s) {
       << " mm (mean)\n";
     t << "  Detections:        " << s.detections << " (" << s.false_detections << " false, " << s.missed_detections << " objects missed)\n";
   }
+  if (const PoseRecall& p = s.pose_recall; p.views > 0) {
+    t << "  Pose Recall (BOP): AR " << p.ar << " (VSD " << p.ar_vsd << ", MSSD " << p.ar_mssd << ", MSPD " << p.ar_mspd << ") over "
+      << p.targets << " targets in " << p.views << " views\n";
+    t << "                     MSSD < 0.1 d: " << rateText(p.mssd_10, " targets at least half visible") << "\n";
+    t << "  Pose Estimation:   " << fixedText(1000 * p.seconds_per_view_mean, 0) << " ms a view (mean), "
+      << fixedText(1000 * p.seconds_per_view_max, 0) << " ms (max), wall\n";
+  }
   t << "  Collisions:        " << s.collision_events << " events in " << n << " trials\n";
   const std::string spawns = s.spawn_failures ? "; " + std::to_string(s.spawn_failures) + " spawns failed" : std::string();
   if (s.goal == "clear_bin")
@@ -101,11 +119,7 @@ std::string summaryTable(const CampaignSummary& s) {
       << (s.objects_left_in_bin == 1 ? " object" : " objects") << " left in the bins" << spawns << "\n";
   t << "  Max Tracking Err:  " << std::setprecision(4) << s.max_tracking_error << " rad\n";
   if (!s.clutter_by_grade.empty()) {  // generated objects: the clutter-removal protocol's figures
-    auto rate = [](const Rate& r, const char* of) {
-      return r.n == 0 ? std::string("n/a (none)")
-                      : fixedText(100 * r.value, 1) + "% [95% CI " + fixedText(100 * r.ci95[0], 1) + ", " + fixedText(100 * r.ci95[1], 1) +
-                            "] of " + std::to_string(r.n) + of;
-    };
+    const auto rate = rateText;
     t << std::string(64, '-') << "\n  Clutter removal (grasp success: attempts whose object reached the tray;\n"
       << "  declutter: objects in the tray of those in the bins)\n";
     t << "    " << std::left << std::setw(8) << "all" << std::right << " GSR " << rate(s.clutter.grasp_success, " attempts") << "\n"

@@ -158,6 +158,28 @@ void TrialRecord::describe(RecordArchive& a) {
     d.field("mssd", k.mssd, "m", "BOP's maximum symmetry-aware surface distance (the farthest corner, best symmetry; -1 as rotation_error)");
   }, "camera perception: every object each perception found, against the simulator's truth (empty in the other modes)");
   a.field("missed_detections", o.missed_detections, "", "camera perception: objects in the bin a perception did not find, summed over perceptions");
+  size_t n_views = o.pose_views.size();
+  a.list("pose_views", n_views, [&](size_t i, RecordArchive& v) {
+    if (v.reading() && o.pose_views.size() <= i) o.pose_views.resize(i + 1);
+    PoseViewRecord& k = o.pose_views[i];
+    v.field("time", k.time, "s", "simulated, since the trial began");
+    v.field("width", k.width, "px", "the image's width (BOP's MSPD thresholds are scaled by 640 / width)");
+    v.field("segments", k.segments, "", "the depth's segments the models were tried on");
+    v.field("posed", k.posed, "", "of them, posed by a model");
+    v.field("seconds", k.seconds, "s", "wall: the view's pose estimation, every segment's (measured; decides nothing)");
+    size_t n_targets = k.targets.size();
+    v.list("targets", n_targets, [&](size_t j, RecordArchive& t) {
+      if (t.reading() && k.targets.size() <= j) k.targets.resize(j + 1);
+      PoseTargetRecord& g = k.targets[j];
+      t.field("object", g.object, "", "the true object (the simulator's index)");
+      t.field("visible_fraction", g.visible_fraction, "", "its pixels in the view (the renderer's labels) / its model's pixels drawn alone at its true pose");
+      t.field("diameter", g.diameter, "m", "its model's");
+      t.field("posed", g.posed, "", "a detection posed by its own model was matched to it (else mssd and mspd are -1, vsd empty)");
+      t.field("mssd", g.mssd, "m", "BOP's maximum symmetry-aware surface distance");
+      t.field("mspd", g.mspd, "px", "BOP's maximum symmetry-aware projection distance, in this image");
+      t.field("vsd", g.vsd, "", "BOP's visible surface discrepancy at tau = 0.05, 0.10, ..., 0.50 of the diameter (delta 15 mm, step cost)");
+    }, "the objects of a mesh kind with a model whose visible fraction is at least 0.1 (BOP19's targets)");
+  }, "known models (perception.known_models): every view's pose estimation and its targets' pose errors (empty otherwise)");
   size_t n_reg = o.camera_registrations.size();
   a.list("camera_registrations", n_reg, [&](size_t i, RecordArchive& d) {
     if (d.reading() && o.camera_registrations.size() <= i) o.camera_registrations.resize(i + 1);
@@ -333,6 +355,19 @@ void CampaignSummary::describe(RecordArchive& a) {
   };
   rate(a, "grasp_success_rate", clutter.grasp_success, "grasp attempts (closings of the fingers on a chosen grasp) whose object was released in the tray / attempts");
   rate(a, "declutter_rate", clutter.declutter, "objects released in the tray / objects in the bins at the trials' starts");
+  a.object("pose_recall", [&](RecordArchive& p) {
+    PoseRecall& r = pose_recall;
+    p.field("views", r.views, "", "views whose segments the models were tried on");
+    p.field("targets", r.targets, "", "objects of a mesh kind at least 0.1 visible in those views, counted once per view (BOP19's targets)");
+    p.field("posed", r.posed, "", "of them, matched to a detection posed by their own model");
+    p.field("ar", r.ar, "", "BOP19's average recall: the mean of the three below (-1: no targets)");
+    p.field("ar_vsd", r.ar_vsd, "", "the share of targets with VSD < theta, over theta = 0.05 ... 0.5 and tau = 0.05 d ... 0.5 d");
+    p.field("ar_mssd", r.ar_mssd, "", "the share with MSSD < theta d, theta = 0.05 ... 0.5");
+    p.field("ar_mspd", r.ar_mspd, "", "the share with MSPD (scaled to a 640 px wide image) < theta, theta = 5 ... 50 px");
+    rate(p, "mssd_10", r.mssd_10, "targets at least half visible whose MSSD < 0.1 d / those targets");
+    p.field("seconds_per_view_mean", r.seconds_per_view_mean, "s", "wall: a view's pose estimation, every segment's");
+    p.field("seconds_per_view_max", r.seconds_per_view_max, "s", "");
+  }, "known models (perception.known_models): their poses against the simulator's truth (no views: zeros and -1)");
   a.field("attempt_results", attempt_results, "", "grasp attempts by result (in_tray, missed, dropped, let_go_elsewhere, halted, held_at_end)");
   size_t n_grades = clutter_by_grade.size();
   a.list("clutter_by_grade", n_grades, [&](size_t i, RecordArchive& g) {
@@ -545,6 +580,8 @@ std::string recordsMarkdown() {
   r.o.grasp_selections.resize(1);
   r.o.grasp_selections[0].tried.resize(1);
   r.o.grasp_attempts.resize(1);
+  r.o.pose_views.resize(1);
+  r.o.pose_views[0].targets.resize(1);
   r.describe(t);
   Documenter s;
   CampaignSummary c;

@@ -36,7 +36,7 @@ class RecordArchive {
   virtual bool reading() const { return false; }
 };
 
-constexpr int kTrialSchema = 15;  // 3: attempts, failure kinds crash and hang; 4: picks' offset; 5: forces, contacts; 6: picks' first_pass; 7: detections; 8: grasp selections, picks' grasp type and deviation; 9: ik_solver; 10: grasp attempts, object grades; 11: picks' place_turn; 12: grasps' tried[].turned; 13: oracle; 14: external_calls; 15: external_calls' answer
+constexpr int kTrialSchema = 16;  // 3: attempts, failure kinds crash and hang; 4: picks' offset; 5: forces, contacts; 6: picks' first_pass; 7: detections; 8: grasp selections, picks' grasp type and deviation; 9: ik_solver; 10: grasp attempts, object grades; 11: picks' place_turn; 12: grasps' tried[].turned; 13: oracle; 14: external_calls; 15: external_calls' answer; 16: pose_views
 
 /// One trial as trials.jsonl holds it.
 struct TrialRecord {
@@ -76,6 +76,20 @@ struct Rate {
   double value = -1;
   std::vector<double> ci95;
   void finish();
+};
+
+/// Known models: pose recall as the BOP Challenge scores it (Hodaň et al., "BOP Challenge 2020 on 6D
+/// Object Localization", ECCVW 2020), over every view's targets (visible fraction >= 0.1): a
+/// target's pose is correct at a threshold when its matched detection's error is under it (no
+/// detection: never); each average recall is the share correct over its thresholds and the targets.
+struct PoseRecall {
+  long views = 0, targets = 0, posed = 0;
+  double ar = -1;       ///< the mean of the three below; -1: no targets
+  double ar_vsd = -1;   ///< VSD < 0.05 ... 0.5, at each tau 0.05 d ... 0.5 d (100 pairs)
+  double ar_mssd = -1;  ///< MSSD < 0.05 d ... 0.5 d
+  double ar_mspd = -1;  ///< MSPD < 5 ... 50 px, scaled to a 640 px wide image
+  Rate mssd_10;         ///< MSSD < 0.1 d, over the targets at least half visible
+  double seconds_per_view_mean = 0, seconds_per_view_max = 0;
 };
 
 /// The clutter-removal protocol's figures for the objects of one shape grade (or all of them).
@@ -121,6 +135,7 @@ struct CampaignSummary {
   double non_target_contacts_per_trial = 0;
   double neighbours_moved_mm_max = 0;
   long objects_spawned = 0;
+  PoseRecall pose_recall;                  ///< known models' poses (perception.known_models)
   ClutterStats clutter;                    ///< grasp success and declutter rates over all objects
   std::vector<ClutterStats> clutter_by_grade;  ///< the same per shape grade (generated objects)
   std::map<std::string, long> attempt_results;  ///< grasp attempts by result
@@ -150,6 +165,8 @@ class SummaryBuilder {
   Int128 all_time_ = 0, sim_total_ = 0;
   long unrecovered_failures_ = 0, non_target_contacts_ = 0, objects_first_pass_ = 0;
   std::map<std::string, ClutterStats> grades_;
+  ExactMoments pose_seconds_;
+  long vsd_hits_ = 0, mssd_hits_ = 0, mspd_hits_ = 0;  // (target, threshold) pairs correct
 };
 
 /// The statistics of `trials` (a SummaryBuilder fed with each).

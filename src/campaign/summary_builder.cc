@@ -42,6 +42,25 @@ void SummaryBuilder::add(const TrialRecord& r) {
     if (d.mssd >= 0) det_mssd_mm_.add(1000.0 * d.mssd);
   }
   s.missed_detections += o.missed_detections;
+  for (const PoseViewRecord& v : o.pose_views) {
+    ++s.pose_recall.views;
+    pose_seconds_.add(v.seconds);
+    const double px = v.width > 0 ? 640.0 / v.width : 1.0;
+    for (const PoseTargetRecord& t : v.targets) {
+      ++s.pose_recall.targets;
+      const bool half = t.visible_fraction >= 0.5;
+      s.pose_recall.mssd_10.n += half;
+      if (!t.posed) continue;
+      ++s.pose_recall.posed;
+      s.pose_recall.mssd_10.k += half && t.mssd < 0.1 * t.diameter;
+      for (int i = 1; i <= 10; ++i) {  // BOP's thresholds: 0.05, 0.10, ..., 0.50
+        const double th = i / 20.0;
+        mssd_hits_ += t.mssd < th * t.diameter;
+        mspd_hits_ += t.mspd * px < 100.0 * th;
+        for (double e : t.vsd) vsd_hits_ += e < th;
+      }
+    }
+  }
   // A crashed trial's bin is unknown; a trial whose spawn failed never had a bin to clear.
   const bool harness_failure =
       o.failure_kind == FailureKind::kCrash || o.failure_kind == FailureKind::kHang || o.failure_kind == FailureKind::kSpawn;
@@ -188,6 +207,17 @@ CampaignSummary SummaryBuilder::get() const {
     s.det_centre_mm_mean = dc.mean, s.det_centre_mm_max = dc.max;
     s.det_rotation_deg_mean = dr.mean, s.det_rotation_deg_max = dr.max;
     s.det_mssd_mm_mean = dm.mean, s.det_mssd_mm_max = dm.max;
+  }
+  {
+    PoseRecall& p = s.pose_recall;
+    if (p.targets > 0) {
+      const double targets = static_cast<double>(p.targets);
+      p.ar_vsd = vsd_hits_ / (100 * targets), p.ar_mssd = mssd_hits_ / (10 * targets), p.ar_mspd = mspd_hits_ / (10 * targets);
+      p.ar = (p.ar_vsd + p.ar_mssd + p.ar_mspd) / 3;
+    }
+    p.mssd_10.finish();
+    const Moments ps = pose_seconds_.get();
+    p.seconds_per_view_mean = ps.mean, p.seconds_per_view_max = ps.max;
   }
   s.orient_deg_mean = od.mean, s.orient_deg_max = od.max;
   s.collisions_per_100 = n ? 100.0 * s.collision_events / n : 0.0;

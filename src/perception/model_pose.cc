@@ -113,6 +113,41 @@ ModelDrawing drawModel(const ObjectModel& m, const Pose& T_world_object, const C
   return d;
 }
 
+std::vector<double> vsd(const ObjectModel& m, const Pose& est, const Pose& truth, const CameraModel& cam,
+                        const std::vector<float>& depth, double delta, const std::vector<double>& taus) {
+  const std::array<int, 4> we = modelWindow(m, est, cam), wt = modelWindow(m, truth, cam);
+  // The union of the two windows (an empty one, a pose behind the camera, adds nothing).
+  std::array<int, 4> w = wt;
+  if (wt[2] <= wt[0]) w = we;
+  else if (we[2] > we[0]) w = {std::min(we[0], wt[0]), std::min(we[1], wt[1]), std::max(we[2], wt[2]), std::max(we[3], wt[3])};
+  std::vector<double> errors(taus.size(), 1.0);
+  if (w[2] <= w[0] || w[3] <= w[1] || depth.size() != static_cast<size_t>(cam.width) * cam.height) return errors;
+  const ModelDrawing de = drawModel(m, est, cam, w[0], w[1], w[2], w[3]), dt = drawModel(m, truth, cam, w[0], w[1], w[2], w[3]);
+  long union_count = 0, inter_count = 0;
+  std::vector<long> far(taus.size(), 0);  // pixels of the intersection whose distances differ by tau or more
+  for (int v = w[1]; v < w[3]; ++v)
+    for (int u = w[0]; u < w[2]; ++u) {
+      const float ze = de.at(u, v), zt = dt.at(u, v);
+      if (ze <= 0 && zt <= 0) continue;
+      // Depth to distance along the pixel's ray, for the view and both drawings alike.
+      const double ray = std::hypot((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0);
+      const float zs = depth[static_cast<size_t>(v) * cam.width + u];
+      const double ds = zs > 0 && std::isfinite(zs) ? zs * ray : 0.0, de_ = ze * ray, dt_ = zt * ray;
+      const bool seen_t = zt > 0 && (ds == 0 || dt_ - ds <= delta);
+      const bool seen_e = ze > 0 && (ds == 0 || de_ - ds <= delta || seen_t);
+      if (!seen_t && !seen_e) continue;
+      ++union_count;
+      if (!(seen_t && seen_e)) continue;
+      ++inter_count;
+      const double apart = std::abs(de_ - dt_) / m.diameter;
+      for (size_t i = 0; i < taus.size(); ++i) far[i] += apart >= taus[i];
+    }
+  if (union_count == 0) return errors;
+  for (size_t i = 0; i < taus.size(); ++i)
+    errors[i] = static_cast<double>(far[i] + (union_count - inter_count)) / static_cast<double>(union_count);
+  return errors;
+}
+
 // ---- the estimator -----------------------------------------------------------------------------
 
 namespace {

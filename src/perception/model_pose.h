@@ -54,6 +54,15 @@ struct ObjectModel {
 double mssd(const ObjectModel& m, const Pose& estimate, const Pose& truth);
 double mspd(const ObjectModel& m, const Pose& estimate, const Pose& truth, const CameraModel& cam);
 
+/// BOP's VSD (Hodaň, Michel et al., ECCV 2018; as bop_toolkit's pose_error.vsd with the "step"
+/// cost and the "bop19" visibility): the model drawn at both poses as distance images (along each
+/// pixel's ray), each pose's visible surface found against the view's `depth` (tolerance `delta`
+/// [m]; missing depth counts as visible; the estimate also visible where the truth is), and for
+/// each tau of `taus` (a share of the diameter) the union's share where the two surfaces are not
+/// both visible and within tau of each other. 1 where nothing of either is visible.
+std::vector<double> vsd(const ObjectModel& m, const Pose& estimate, const Pose& truth, const CameraModel& cam,
+                        const std::vector<float>& depth, double delta, const std::vector<double>& taus);
+
 /// The model alone drawn at `T_world_object` into `cam`'s image, over the pixels [u0, u1) x [v0, v1):
 /// depth [m] (0 where it does not cover) and the face seen at each pixel (-1: none), row-major
 /// over the window. Back faces are culled; the nearest face wins.

@@ -3,6 +3,7 @@
 #include "task/pick_place.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 
@@ -15,6 +16,7 @@
 #include "perception/segmentation.h"
 #include "planning/time_parameterization.h"
 #include "sim/hardware.h"
+#include "sim/sim_world.h"
 #include "task/plan_steps.h"
 
 namespace mm {
@@ -103,6 +105,45 @@ bool captureView(TrialContext& ctx, Frame& frame, std::string* why) { return cap
 
 namespace {
 
+// Known models' poses scored as the BOP Challenge's targets: each true object in the bin of a kind
+// with a model, its visible fraction its pixels in the view (the renderer's `labels`) over its model's
+// drawn alone at its pose; those at least 0.1 visible are the view's targets, with the errors of
+// the detection posed by their own model that was matched to them (`posed_as`, else none).
+void scorePoses(const Frame& frame, const std::vector<uint8_t>& labels, const PerceptionOptions& o,
+                const std::vector<ObjectState>& truth, const std::vector<const ObjectState*>& posed_as, PoseViewRecord& view) {
+  const ModelPoseEstimator& models = *o.models;
+  const CameraModel& cam = frame.camera;
+  if (labels.size() != frame.depth.size() || labels.empty()) return;  // no labels rendered: nothing to score by
+  std::array<long, 256> seen{};
+  for (uint8_t l : labels) ++seen[l];
+  static const std::vector<double> kTaus{0.05, 0.10, 0.15, 0.20, 0.25, 0.30, 0.35, 0.40, 0.45, 0.50};
+  constexpr double kDelta = 0.015;  // [m] BOP's VSD tolerance for most datasets
+  for (size_t i = 0; i < truth.size(); ++i) {
+    const ObjectState& t = truth[i];
+    const ObjectModel* m = nullptr;
+    for (const auto& candidate : models.models())
+      if (t.pieces && candidate->pieces == t.pieces) m = candidate.get();
+    // The bin's objects only (those in the tray are seen, never looked for).
+    if (!m || t.index < 0 || t.index + kSegmentObject0 >= kSegmentObstacle || !insideCrop(t, o)) continue;
+    const std::array<int, 4> w = modelWindow(*m, t.T_world_object, cam);
+    const ModelDrawing alone = drawModel(*m, t.T_world_object, cam, w[0], w[1], w[2], w[3]);
+    const long all = std::count_if(alone.depth.begin(), alone.depth.end(), [](float z) { return z > 0; });
+    if (all == 0) continue;
+    PoseTargetRecord r;
+    r.object = t.index;
+    r.visible_fraction = std::min(1.0, static_cast<double>(seen[static_cast<size_t>(kSegmentObject0 + t.index)]) / all);
+    if (r.visible_fraction < 0.1) continue;
+    r.diameter = m->diameter;
+    if (const ObjectState* d = posed_as[i]) {
+      r.posed = true;
+      r.mssd = mssd(*m, d->T_world_object, t.T_world_object);
+      r.mspd = mspd(*m, d->T_world_object, t.T_world_object, cam);
+      r.vsd = vsd(*m, d->T_world_object, t.T_world_object, cam, frame.depth, kDelta, kTaus);
+    }
+    view.targets.push_back(std::move(r));
+  }
+}
+
 // Camera mode: the camera's depth image through detectKnownObjects, or, for objects with no model,
 // cut into segments (segmentDepth, segmentObject). Every detection is what the robot knows, under
 // an id of its own; a false one included (the robot finds out by trying). The simulator's truth
@@ -139,6 +180,9 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
   }
   CameraPerceptionResult r;
   std::vector<int> posed_by;  // each detection's model (known_models), or -1: a segment's columns
+  PoseViewRecord pose_view;   // known_models: the view's pose estimation
+  pose_view.time = ctx.simTime();
+  pose_view.width = frame.camera.width;
   if (o.unknown_objects) {  // no model: each segment of the depth, as the columns under its points
     SegmentationOptions so;
     so.T_world_region = o.T_world_crop;
@@ -149,6 +193,9 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
       // Known objects: the segment posed by their models, and known as the model it is.
       if (o.known_models && o.models) {
         const ModelPose mp = o.models->estimate(frame, s);
+        ++pose_view.segments;
+        pose_view.posed += mp.ok;
+        pose_view.seconds += mp.seconds;
         if (mp.ok) {
           const ObjectModel& m = *o.models->models()[static_cast<size_t>(mp.model)];
           ObjectState ob;
@@ -205,6 +252,7 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
     for (const ObjectState& t : ctx.hw.objects())
       if (t.index != ctx.held_truth) truth.push_back(t);
     std::vector<char> taken(truth.size(), 0);
+    std::vector<const ObjectState*> posed_as(truth.size(), nullptr);  // known models: the detection posed by its own model
     for (size_t d = 0; d < p.objects.size(); ++d) {
       const ObjectState& seen = p.objects[d];
       const int model = d < posed_by.size() ? posed_by[d] : -1;
@@ -233,6 +281,7 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
           rec.centre_error = (seen.T_world_object.translation() - t.T_world_object.translation()).norm();
           rec.rotation_error = rec.mssd = -1;
           if (t.pieces == m.pieces) {
+            posed_as[static_cast<size_t>(best)] = &seen;
             rec.mssd = mssd(m, seen.T_world_object, t.T_world_object);
             double angle = M_PI;
             for (const Mat3& S : m.symmetries)
@@ -250,6 +299,11 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
     }
     for (size_t i = 0; i < truth.size(); ++i)
       if (!taken[i] && insideCrop(truth[i], o)) ++ctx.out.missed_detections;
+    if (o.known_models && o.models) {
+      const std::vector<uint8_t>* labels = ctx.scoringLabels(scoring);
+      scorePoses(frame, labels && !labels->empty() ? *labels : frame.segmentation, o, truth, posed_as, pose_view);
+      ctx.out.pose_views.push_back(std::move(pose_view));
+    }
   }
   p.ok = !p.objects.empty();
   if (!p.ok && !r.unexplained.empty())

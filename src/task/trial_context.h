@@ -29,6 +29,7 @@ namespace mm {
 
 class ExternalComponent;
 class Hardware;
+class TruthScope;
 
 /// One step of a plan: a joint trajectory, a gripper motion, attaching the grasped object, or a
 /// marker (a stage recorded without motion, as MTC's Detach).
@@ -220,6 +221,14 @@ class TrialContext {
   double& computeBucket(TimeBucket b);
   double& executeBucket(TimeBucket b);
   double simTime() const;  ///< [s] since the trial started
+
+  /// Known models' scoring: the renderer's labels of the camera's last capture, kept by the
+  /// campaign's camera source out of the frame the robot reads. Only a TruthScope reads them.
+  void setScoringLabels(const std::vector<uint8_t>* labels) { scoring_labels_ = labels; }
+  const std::vector<uint8_t>* scoringLabels(const TruthScope&) const { return scoring_labels_; }
+
+ private:
+  const std::vector<uint8_t>* scoring_labels_ = nullptr;
 };
 
 }  // namespace mm

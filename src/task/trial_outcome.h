@@ -26,6 +26,28 @@ struct DetectionRecord {
   double mssd = 0;            ///< [m] BOP's maximum symmetry-aware surface distance
 };
 
+/// Known models (perception.known_models): one object a view could have posed, as BOP's targets
+/// (its visible fraction at least 0.1), and the errors of the pose matched to it (evaluation only).
+struct PoseTargetRecord {
+  int object = -1;              ///< the simulator's index
+  double visible_fraction = 0;  ///< its pixels in the view / its pixels drawn alone (the renderer's labels, its model)
+  double diameter = 0;          ///< [m] its model's
+  bool posed = false;           ///< a detection of its own model was matched to it (else the errors are -1, vsd empty)
+  double mssd = -1;             ///< [m]
+  double mspd = -1;             ///< [px] in this view's image
+  std::vector<double> vsd;      ///< BOP's VSD at tau = 0.05, 0.10, ..., 0.50 of the diameter (delta 15 mm)
+};
+
+/// Known models: one view's pose estimation, its time and its targets.
+struct PoseViewRecord {
+  double time = 0;         ///< [s] simulated, since the trial began
+  int width = 0;           ///< [px] the image's (BOP's MSPD thresholds are scaled by 640 / width)
+  int segments = 0;        ///< the depth's segments posed
+  int posed = 0;           ///< of them, posed by a model
+  double seconds = 0;      ///< [s] wall: the view's pose estimation (every segment's; measured, decides nothing)
+  std::vector<PoseTargetRecord> targets;
+};
+
 /// The camera registered again against the cell (RegisterCamera): the correction it found.
 struct RegistrationRecord {
   double time = 0;         ///< [s] simulated, since the trial began
@@ -168,6 +190,7 @@ struct TrialOutcome {
   std::vector<GraspSelection> grasp_selections;  ///< every grasp selection, in order
   std::vector<DetectionRecord> detections;  ///< camera mode: every detection of every perception
   int missed_detections = 0;      ///< camera mode: objects in the bin a perception did not find
+  std::vector<PoseViewRecord> pose_views;  ///< known models: every view's pose estimation, scored
   std::vector<RegistrationRecord> camera_registrations;  ///< camera mode: every RegisterCamera that succeeded
   std::vector<ExternalCallRecord> external_calls;  ///< every call of the external component
   std::vector<LeftRecord> left;   ///< every object left in the bin at the end

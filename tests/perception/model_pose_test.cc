@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 
 #include "core/rng.h"
 #include "perception/camera_perception.h"
@@ -93,6 +94,36 @@ TEST(ModelPose, SymmetriesAndErrorsOfAHexagonalBar) {
   EXPECT_NEAR(mspd(hex, ahead * makePose(Vec3::Zero(), Mat3(turn(Vec3::UnitZ(), 60))), ahead, cam), 0, 1e-6);
   // The wedge has no symmetry: turned end over end, its far corners move by its length and more.
   EXPECT_GT(mssd(*ms[1], truth * makePose(Vec3::Zero(), Mat3(turn(Vec3::UnitX(), 180))), truth), 0.04);
+}
+
+// BOP's VSD of the hexagonal bar seen alone (the view's depth is its own drawing at the truth,
+// nothing behind it): zero at the truth and at a symmetric twin, one where the poses do not
+// overlap, and between, by tau, for a pose 1 cm too far (all its surface 0.14 d off).
+TEST(ModelPose, VsdIsBopsVisibleSurfaceDiscrepancy) {
+  SpawnOptions so;
+  so.kinds = kKinds;
+  so.resolve("(test)");
+  const auto ms = models(so.loaded);
+  const ObjectModel& hex = *ms[0];
+  CameraModel cam;
+  cam.width = 320, cam.height = 240, cam.fx = cam.fy = 400, cam.cx = 159.5, cam.cy = 119.5;
+  const Pose truth = makePose(Vec3(0.01, -0.005, 0.5), Mat3(turn(Vec3(1, 2, 3), 40)));
+  const ModelDrawing seen = drawModel(hex, truth, cam, 0, 0, cam.width, cam.height);
+  const std::vector<double> taus{0.05, 0.1, 0.2, 0.5};
+  for (double e : vsd(hex, truth, truth, cam, seen.depth, 0.015, taus)) EXPECT_EQ(e, 0);
+  for (double e : vsd(hex, truth * makePose(Vec3::Zero(), Mat3(turn(Vec3::UnitZ(), 60))), truth, cam, seen.depth, 0.015, taus))
+    EXPECT_LT(e, 0.03);  // the twin's drawing differs from the truth's by rasterised edges only
+  for (double e : vsd(hex, makePose(truth.translation() + Vec3(0.1, 0, 0), truth.linear()), truth, cam, seen.depth, 0.015, taus))
+    EXPECT_EQ(e, 1);
+  const std::vector<double> far =
+      vsd(hex, makePose(truth.translation() + Vec3(0, 0, 0.01), truth.linear()), truth, cam, seen.depth, 0.015, taus);
+  EXPECT_GT(far[0], 0.95);  // 1 cm is 0.14 d: past tau 0.05 d and 0.1 d everywhere ...
+  EXPECT_GT(far[1], 0.95);
+  EXPECT_LT(far[2], 0.1);   // ... within 0.2 d but where the farther silhouette is smaller
+  EXPECT_LT(far[3], 0.1);
+  // Hidden behind a wall 10 cm nearer the camera, nothing of either is visible: an error of one.
+  std::vector<float> wall(seen.depth.size(), 0.40f);
+  for (double e : vsd(hex, truth, truth, cam, wall, 0.015, taus)) EXPECT_EQ(e, 1);
 }
 
 struct Score {
@@ -234,6 +265,40 @@ TEST(ModelPose, ACameraModeRoundPosesTheKnownObjectsByTheirModels) {
   EXPECT_GE(posed, 3) << t["detections"].dump();
   EXPECT_GE(close, posed * 3 / 4) << t["detections"].dump();
   EXPECT_GE(t["objects_placed"].get<int>(), 1) << t.dump();
+  // Each view's pose estimation scored as BOP's targets, and the recall in the summary.
+  ASSERT_FALSE(t["pose_views"].empty());
+  const auto& first = t["pose_views"][0];
+  EXPECT_EQ(first["time"].get<double>(), 0.0);
+  EXPECT_EQ(first["width"].get<int>(), 1280);
+  EXPECT_GE(first["segments"].get<int>(), first["posed"].get<int>());
+  EXPECT_GT(first["seconds"].get<double>(), 0.0);
+  EXPECT_GE(first["targets"].size(), 3u);
+  EXPECT_LE(first["targets"].size(), 5u);  // the bin's five, not the tray's
+  long targets = 0, consistent = 0, good = 0;
+  for (const auto& v : t["pose_views"])
+    for (const auto& g : v["targets"]) {
+      ++targets;
+      EXPECT_GE(g["visible_fraction"].get<double>(), 0.1);
+      EXPECT_LE(g["visible_fraction"].get<double>(), 1.0);
+      if (!g["posed"].get<bool>()) {
+        EXPECT_TRUE(g["vsd"].empty());
+        continue;
+      }
+      ASSERT_EQ(g["vsd"].size(), 10u);
+      // Two errors that share no code agree: a pose right by MSSD is right by VSD at 0.3 d.
+      if (g["mssd"].get<double>() < 0.05 * g["diameter"].get<double>()) ++good, consistent += g["vsd"][5].get<double>() < 0.3;
+    }
+  EXPECT_GE(good, 3);
+  EXPECT_GE(consistent, good * 9 / 10);
+  std::ifstream in(d.path() / "out" / "summary.json");
+  const nlohmann::json s = nlohmann::json::parse(in);
+  const auto& p = s["pose_recall"];
+  EXPECT_EQ(p["views"].get<long>(), static_cast<long>(t["pose_views"].size()));
+  EXPECT_EQ(p["targets"].get<long>(), targets);
+  EXPECT_GE(p["ar"].get<double>(), 0.5) << p.dump();
+  EXPECT_LE(p["ar"].get<double>(), 1.0);
+  EXPECT_NEAR(p["ar"].get<double>(), (p["ar_vsd"].get<double>() + p["ar_mssd"].get<double>() + p["ar_mspd"].get<double>()) / 3, 1e-12);
+  EXPECT_GT(p["seconds_per_view_mean"].get<double>(), 0.0);
 }
 
 TEST(ModelPose, KnownModelsOutsideCameraModeOrWithoutMeshesAreExitTwo) {
