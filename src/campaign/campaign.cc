@@ -102,7 +102,9 @@ std::string summaryTable(const CampaignSummary& s) {
       << " mm (mean)\n";
     t << "  Detections:        " << s.detections << " (" << s.false_detections << " false, " << s.missed_detections << " objects missed)\n";
   }
-  if (const PoseRecall& p = s.pose_recall; p.views > 0) {
+  if (const PoseRecall& p = s.pose_recall; p.views > 0 && p.targets == 0) {
+    t << "  Pose Recall (BOP): no targets in " << p.views << " views\n";
+  } else if (p.views > 0) {
     t << "  Pose Recall (BOP): AR " << p.ar << " (VSD " << p.ar_vsd << ", MSSD " << p.ar_mssd << ", MSPD " << p.ar_mspd << ") over "
       << p.targets << " targets in " << p.views << " views\n";
     t << "                     MSSD < 0.1 d: " << rateText(p.mssd_10, " targets at least half visible") << "\n";

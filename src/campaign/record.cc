@@ -163,7 +163,7 @@ void TrialRecord::describe(RecordArchive& a) {
     if (v.reading() && o.pose_views.size() <= i) o.pose_views.resize(i + 1);
     PoseViewRecord& k = o.pose_views[i];
     v.field("time", k.time, "s", "simulated, since the trial began");
-    v.field("width", k.width, "px", "the image's width (BOP's MSPD thresholds are scaled by 640 / width)");
+    v.field("width", k.width, "px", "the image's width (BOP scales MSPD by 640 / width before its thresholds)");
     v.field("segments", k.segments, "", "the depth's segments the models were tried on");
     v.field("posed", k.posed, "", "of them, posed by a model");
     v.field("seconds", k.seconds, "s", "wall: the view's pose estimation, every segment's (measured; decides nothing)");
@@ -174,7 +174,7 @@ void TrialRecord::describe(RecordArchive& a) {
       t.field("object", g.object, "", "the true object (the simulator's index)");
       t.field("visible_fraction", g.visible_fraction, "", "its pixels in the view (the renderer's labels) / its model's pixels drawn alone at its true pose");
       t.field("diameter", g.diameter, "m", "its model's");
-      t.field("posed", g.posed, "", "a detection posed by its own model was matched to it (else mssd and mspd are -1, vsd empty)");
+      t.field("posed", g.posed, "", "a detection posed by its own model was matched to it, by the least MSSD, each detection once (else mssd and mspd are -1, vsd empty)");
       t.field("mssd", g.mssd, "m", "BOP's maximum symmetry-aware surface distance");
       t.field("mspd", g.mspd, "px", "BOP's maximum symmetry-aware projection distance, in this image");
       t.field("vsd", g.vsd, "", "BOP's visible surface discrepancy at tau = 0.05, 0.10, ..., 0.50 of the diameter (delta 15 mm, step cost)");

@@ -28,7 +28,7 @@ using json = nlohmann::json;
 namespace {
 
 /// A trials.jsonl object without what wall-clock time decides (compute times, the cycle's totals
-/// that include them, the external component's times, worker attempts, log paths): what a replay
+/// that include them, the external component's and the pose estimation's times, worker attempts, log paths): what a replay
 /// must reproduce exactly.
 json outcomeFields(json j) {
   for (const char* k : {"compute_time", "attempts", "bt_log"}) j.erase(k);
@@ -39,6 +39,8 @@ json outcomeFields(json j) {
   if (j.contains("external_calls"))
     for (json& c : j["external_calls"])
       for (const char* k : {"write_seconds", "answer_seconds"}) c.erase(k);
+  if (j.contains("pose_views"))
+    for (json& v : j["pose_views"]) v.erase("seconds");
   return j;
 }
 

@@ -110,19 +110,23 @@ TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial
   // Camera perception reads depth images rendered now, with the sensor's noise drawn from the
   // trial's own stream.
   Rng camera_noise = Rng::stream(e_.seed, trial, Purpose::kCamera);
-  std::vector<uint8_t> scoring_labels;
+  ScoringView scoring_view;
   if (renderer_ && needs_camera_)
     backend.setCameraSource([&](const std::string& name, int width, int height, Frame& frame, std::string*) {
       // The oracle's segmentation reads the renderer's labels (perception.segmentation: labels).
       // The external component's declared oracle run is given them too (external.oracle); colour for it always.
       // Known models' poses are scored by them (their visible fractions): then they are kept apart,
-      // out of the frame, for the scoring alone (TrialContext::scoringLabels).
+      // out of the frame, for the scoring alone (TrialContext::scoringView), with where the camera
+      // really drew from.
       const bool labels = e_.perception.segmentation == SegmentationSource::kLabels || (external_ && e_.task.external.oracle);
       const bool scoring = !labels && e_.perception.known_models;
       const unsigned kinds = (labels || scoring ? kDepth | kSegmentation : kDepth) | (external_ ? kRgb : 0u);
       frame = renderer_->render(world, renderer_->camera(world, name, width, height, e_.file), kinds);
-      scoring_labels.clear();
-      if (scoring) scoring_labels.swap(frame.segmentation);
+      scoring_view.camera = frame.camera;
+      scoring_view.camera.T_world_camera = frame.camera.T_world_camera * world.cameraOffset(name);
+      scoring_view.labels.clear();
+      if (scoring) scoring_view.labels.swap(frame.segmentation);
+      else if (e_.perception.known_models) scoring_view.labels = frame.segmentation;  // the oracle's, given on purpose
       applyDepthNoise(frame, e_.perception.noise, camera_noise);
       if (view_tap_) view_tap_(world, frame);
       return true;
@@ -134,7 +138,7 @@ TrialOutcome TrialRunner::run(Hardware& backend, SimWorld& world, uint64_t trial
   ctx.target_half_height = cell_.place_target_half_height;
   ctx.keep_view = keep_view;
   context = &ctx;
-  ctx.setScoringLabels(&scoring_labels);
+  ctx.setScoringView(&scoring_view);
   ctx.faults = faults.get();
   ctx.external = external_.get();
   if (external_) external_->beginTrial();

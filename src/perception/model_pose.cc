@@ -58,7 +58,7 @@ double mspd(const ObjectModel& m, const Pose& est, const Pose& truth, const Came
 
 // ---- drawing -----------------------------------------------------------------------------------
 
-std::array<int, 4> modelWindow(const ObjectModel& m, const Pose& T_world_object, const CameraModel& cam) {
+std::array<int, 4> modelWindow(const ObjectModel& m, const Pose& T_world_object, const CameraModel& cam, bool clip) {
   const Pose T_cam_object = cam.T_world_camera.inverse() * T_world_object;
   double u0 = INFINITY, v0 = INFINITY, u1 = -INFINITY, v1 = -INFINITY;
   for (const Vec3& x : m.vertices) {
@@ -67,9 +67,13 @@ std::array<int, 4> modelWindow(const ObjectModel& m, const Pose& T_world_object,
     const double u = cam.fx * p.x() / p.z() + cam.cx, v = cam.fy * p.y() / p.z() + cam.cy;
     u0 = std::min(u0, u), u1 = std::max(u1, u), v0 = std::min(v0, v), v1 = std::max(v1, v);
   }
-  auto clip = [](double x, int hi) { return static_cast<int>(std::clamp(x, 0.0, static_cast<double>(hi))); };
-  return {clip(std::floor(u0) - 1, cam.width), clip(std::floor(v0) - 1, cam.height), clip(std::ceil(u1) + 2, cam.width),
-          clip(std::ceil(v1) + 2, cam.height)};
+  // Unclipped: up to twice the image's size beyond each edge (a pose just in front of the camera
+  // projects anywhere; its drawing must stay a size that can be held).
+  auto bound = [&](double x, int hi) {
+    return static_cast<int>(clip ? std::clamp(x, 0.0, static_cast<double>(hi)) : std::clamp(x, -2.0 * hi, 3.0 * hi));
+  };
+  return {bound(std::floor(u0) - 1, cam.width), bound(std::floor(v0) - 1, cam.height), bound(std::ceil(u1) + 2, cam.width),
+          bound(std::ceil(v1) + 2, cam.height)};
 }
 
 ModelDrawing drawModel(const ObjectModel& m, const Pose& T_world_object, const CameraModel& cam, int u0, int v0, int u1, int v1) {

@@ -74,8 +74,9 @@ struct ModelDrawing {
 };
 ModelDrawing drawModel(const ObjectModel& m, const Pose& T_world_object, const CameraModel& cam, int u0, int v0, int u1, int v1);
 /// The pixel window the model covers at `T_world_object` (its vertices' projections, a pixel of
-/// margin), clipped to the image; empty (u1 <= u0) when it is not in front of the camera.
-std::array<int, 4> modelWindow(const ObjectModel& m, const Pose& T_world_object, const CameraModel& cam);
+/// margin), clipped to the image (else to twice its size beyond each edge); empty (u1 <= u0) when
+/// it is not in front of the camera.
+std::array<int, 4> modelWindow(const ObjectModel& m, const Pose& T_world_object, const CameraModel& cam, bool clip = true);
 
 struct ModelPoseOptions {
   // Point-pair features (lengths relative to each model's diameter).

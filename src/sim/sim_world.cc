@@ -506,6 +506,11 @@ Pose SimWorld::cameraOffset(int cam) const {
   return it == impl_->camera_offsets.end() ? Pose::Identity() : it->second;
 }
 
+Pose SimWorld::cameraOffset(const std::string& name) const {
+  const int cam = mj_name2id(impl_->m, mjOBJ_CAMERA, name.c_str());
+  return cam < 0 ? Pose::Identity() : cameraOffset(cam);
+}
+
 bool SimWorld::setCameraOffset(const std::string& name, const Pose& T_mount_camera) {
   const int cam = mj_name2id(impl_->m, mjOBJ_CAMERA, name.c_str());
   if (cam < 0) return false;

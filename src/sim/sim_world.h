@@ -221,6 +221,7 @@ class SimWorld {
   /// T_mount * T_mount_camera (OpenCV's camera frame), while a capture still reports the mount's pose
   /// (what the cell's description says). Identity when it sits on its mount; cleared by reset().
   Pose cameraOffset(int cam) const;
+  Pose cameraOffset(const std::string& name) const;  ///< the same by name (identity for no such camera)
   /// False when the scene has no camera `name`.
   bool setCameraOffset(const std::string& name, const Pose& T_mount_camera);
   mjData_* mujocoData() const;

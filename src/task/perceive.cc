@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <tuple>
 
 #include "core/error.h"
 #include "planning/blend.h"
@@ -106,42 +107,65 @@ bool captureView(TrialContext& ctx, Frame& frame, std::string* why) { return cap
 namespace {
 
 // Known models' poses scored as the BOP Challenge's targets: each true object in the bin of a kind
-// with a model, its visible fraction its pixels in the view (the renderer's `labels`) over its model's
-// drawn alone at its pose; those at least 0.1 visible are the view's targets, with the errors of
-// the detection posed by their own model that was matched to them (`posed_as`, else none).
-void scorePoses(const Frame& frame, const std::vector<uint8_t>& labels, const PerceptionOptions& o,
-                const std::vector<ObjectState>& truth, const std::vector<const ObjectState*>& posed_as, PoseViewRecord& view) {
+// with a model, its visible fraction its pixels in the view (the renderer's labels) over its
+// model's drawn alone at its pose (however much of it falls outside the image); those at least 0.1
+// visible are the view's targets. Each is matched to a detection posed by its own model: every
+// such pair by its MSSD, the least first, each target and each detection once (BOP matches per
+// threshold by the error; this match is the one every threshold reads). The truth's side is drawn
+// from where the camera really was (`real`); `depth` is the view's, as the robot saw it.
+void scorePoses(const std::vector<float>& depth, const ScoringView& real, const PerceptionOptions& o, const std::vector<ObjectState>& truth,
+                const std::vector<ObjectState>& detections, const std::vector<int>& posed_by, PoseViewRecord& view) {
   const ModelPoseEstimator& models = *o.models;
-  const CameraModel& cam = frame.camera;
-  if (labels.size() != frame.depth.size() || labels.empty()) return;  // no labels rendered: nothing to score by
+  const CameraModel& cam = real.camera;
+  if (real.labels.size() != depth.size() || depth.empty()) return;  // no labels rendered: nothing to score by
   std::array<long, 256> seen{};
-  for (uint8_t l : labels) ++seen[l];
+  for (uint8_t l : real.labels) ++seen[l];
   static const std::vector<double> kTaus{0.05, 0.10, 0.15, 0.20, 0.25, 0.30, 0.35, 0.40, 0.45, 0.50};
   constexpr double kDelta = 0.015;  // [m] BOP's VSD tolerance for most datasets
-  for (size_t i = 0; i < truth.size(); ++i) {
-    const ObjectState& t = truth[i];
-    const ObjectModel* m = nullptr;
-    for (const auto& candidate : models.models())
-      if (t.pieces && candidate->pieces == t.pieces) m = candidate.get();
+  constexpr int kLastLabelled = kSegmentObstacle - kSegmentObject0 - 2;  // objects past it share a label
+  struct Target {
+    const ObjectState* truth;
+    const ObjectModel* model;
+    int model_index;
+    PoseTargetRecord record;
+  };
+  std::vector<Target> targets;
+  for (const ObjectState& t : truth) {
+    int k = -1;
+    for (size_t j = 0; j < models.models().size(); ++j)
+      if (t.pieces && models.models()[j]->pieces == t.pieces) k = static_cast<int>(j);
     // The bin's objects only (those in the tray are seen, never looked for).
-    if (!m || t.index < 0 || t.index + kSegmentObject0 >= kSegmentObstacle || !insideCrop(t, o)) continue;
-    const std::array<int, 4> w = modelWindow(*m, t.T_world_object, cam);
-    const ModelDrawing alone = drawModel(*m, t.T_world_object, cam, w[0], w[1], w[2], w[3]);
+    if (k < 0 || t.index < 0 || t.index > kLastLabelled || !insideCrop(t, o)) continue;
+    const ObjectModel& m = *models.models()[static_cast<size_t>(k)];
+    const std::array<int, 4> w = modelWindow(m, t.T_world_object, cam, false);
+    const ModelDrawing alone = drawModel(m, t.T_world_object, cam, w[0], w[1], w[2], w[3]);
     const long all = std::count_if(alone.depth.begin(), alone.depth.end(), [](float z) { return z > 0; });
     if (all == 0) continue;
     PoseTargetRecord r;
     r.object = t.index;
     r.visible_fraction = std::min(1.0, static_cast<double>(seen[static_cast<size_t>(kSegmentObject0 + t.index)]) / all);
     if (r.visible_fraction < 0.1) continue;
-    r.diameter = m->diameter;
-    if (const ObjectState* d = posed_as[i]) {
-      r.posed = true;
-      r.mssd = mssd(*m, d->T_world_object, t.T_world_object);
-      r.mspd = mspd(*m, d->T_world_object, t.T_world_object, cam);
-      r.vsd = vsd(*m, d->T_world_object, t.T_world_object, cam, frame.depth, kDelta, kTaus);
-    }
-    view.targets.push_back(std::move(r));
+    r.diameter = m.diameter;
+    targets.push_back({&t, &m, k, std::move(r)});
   }
+  std::vector<std::tuple<double, size_t, size_t>> pairs;  // MSSD, target, detection
+  for (size_t i = 0; i < targets.size(); ++i)
+    for (size_t d = 0; d < detections.size() && d < posed_by.size(); ++d)
+      if (posed_by[d] == targets[i].model_index)
+        pairs.emplace_back(mssd(*targets[i].model, detections[d].T_world_object, targets[i].truth->T_world_object), i, d);
+  std::sort(pairs.begin(), pairs.end());
+  std::vector<char> detection_used(detections.size(), 0);
+  for (const auto& [e, i, d] : pairs) {
+    Target& g = targets[i];
+    if (g.record.posed || detection_used[d]) continue;
+    detection_used[d] = 1;
+    const Pose& est = detections[d].T_world_object;
+    g.record.posed = true;
+    g.record.mssd = e;
+    g.record.mspd = mspd(*g.model, est, g.truth->T_world_object, cam);
+    g.record.vsd = vsd(*g.model, est, g.truth->T_world_object, cam, depth, kDelta, kTaus);
+  }
+  for (Target& g : targets) view.targets.push_back(std::move(g.record));
 }
 
 // Camera mode: the camera's depth image through detectKnownObjects, or, for objects with no model,
@@ -252,7 +276,6 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
     for (const ObjectState& t : ctx.hw.objects())
       if (t.index != ctx.held_truth) truth.push_back(t);
     std::vector<char> taken(truth.size(), 0);
-    std::vector<const ObjectState*> posed_as(truth.size(), nullptr);  // known models: the detection posed by its own model
     for (size_t d = 0; d < p.objects.size(); ++d) {
       const ObjectState& seen = p.objects[d];
       const int model = d < posed_by.size() ? posed_by[d] : -1;
@@ -281,7 +304,6 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
           rec.centre_error = (seen.T_world_object.translation() - t.T_world_object.translation()).norm();
           rec.rotation_error = rec.mssd = -1;
           if (t.pieces == m.pieces) {
-            posed_as[static_cast<size_t>(best)] = &seen;
             rec.mssd = mssd(m, seen.T_world_object, t.T_world_object);
             double angle = M_PI;
             for (const Mat3& S : m.symmetries)
@@ -300,8 +322,7 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
     for (size_t i = 0; i < truth.size(); ++i)
       if (!taken[i] && insideCrop(truth[i], o)) ++ctx.out.missed_detections;
     if (o.known_models && o.models) {
-      const std::vector<uint8_t>* labels = ctx.scoringLabels(scoring);
-      scorePoses(frame, labels && !labels->empty() ? *labels : frame.segmentation, o, truth, posed_as, pose_view);
+      if (const ScoringView* real = ctx.scoringView(scoring)) scorePoses(frame.depth, *real, o, truth, p.objects, posed_by, pose_view);
       ctx.out.pose_views.push_back(std::move(pose_view));
     }
   }

@@ -31,6 +31,14 @@ class ExternalComponent;
 class Hardware;
 class TruthScope;
 
+/// What the campaign's camera source keeps of its last capture for scoring alone, out of the frame
+/// the robot reads: the renderer's labels (known models' visible fractions) and where the camera
+/// really was (a knocked camera draws from off its mount; the frame reports the mount).
+struct ScoringView {
+  std::vector<uint8_t> labels;  ///< SegmentLabel, width * height; empty when none were rendered
+  CameraModel camera;
+};
+
 /// One step of a plan: a joint trajectory, a gripper motion, attaching the grasped object, or a
 /// marker (a stage recorded without motion, as MTC's Detach).
 struct PlanStep {
@@ -222,13 +230,13 @@ class TrialContext {
   double& executeBucket(TimeBucket b);
   double simTime() const;  ///< [s] since the trial started
 
-  /// Known models' scoring: the renderer's labels of the camera's last capture, kept by the
-  /// campaign's camera source out of the frame the robot reads. Only a TruthScope reads them.
-  void setScoringLabels(const std::vector<uint8_t>* labels) { scoring_labels_ = labels; }
-  const std::vector<uint8_t>* scoringLabels(const TruthScope&) const { return scoring_labels_; }
+  /// Known models' scoring: the camera's last capture as the truth has it (ScoringView), kept by
+  /// the campaign's camera source. Only a TruthScope reads it; nullptr when there is none.
+  void setScoringView(const ScoringView* view) { scoring_view_ = view; }
+  const ScoringView* scoringView(const TruthScope&) const { return scoring_view_; }
 
  private:
-  const std::vector<uint8_t>* scoring_labels_ = nullptr;
+  const ScoringView* scoring_view_ = nullptr;
 };
 
 }  // namespace mm

@@ -41,7 +41,7 @@ struct PoseTargetRecord {
 /// Known models: one view's pose estimation, its time and its targets.
 struct PoseViewRecord {
   double time = 0;         ///< [s] simulated, since the trial began
-  int width = 0;           ///< [px] the image's (BOP's MSPD thresholds are scaled by 640 / width)
+  int width = 0;           ///< [px] the image's (BOP scales MSPD by 640 / width before its thresholds)
   int segments = 0;        ///< the depth's segments posed
   int posed = 0;           ///< of them, posed by a model
   double seconds = 0;      ///< [s] wall: the view's pose estimation (every segment's; measured, decides nothing)

@@ -66,6 +66,9 @@ inline json outcomeFields(json t) {
   t.erase("attempts");
   for (auto& s : t["stages"]) s.erase("compute_seconds");
   for (auto& f : t["faults"]) f.erase("mttr");  // counts compute wall time
+  for (auto& c : t["external_calls"])
+    for (const char* k : {"write_seconds", "answer_seconds"}) c.erase(k);
+  for (auto& v : t["pose_views"]) v.erase("seconds");
   return t;
 }
 
