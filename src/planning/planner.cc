@@ -173,10 +173,14 @@ PlanResult planJointPath(const RobotModel& robot, CollisionChecker& checker, con
     ~ClearOnExit() { p->clear(); }
   } clear_on_exit{planner};
   const auto t0 = std::chrono::steady_clock::now();
-  const ob::PlannerStatus status = planner->solve(ob::timedPlannerTerminationCondition(o.time_limit));
+  const ob::PlannerTerminationCondition budget = ob::timedPlannerTerminationCondition(o.time_limit);
+  const ob::PlannerStatus status = planner->solve(budget);
   r.plan_seconds = seconds(t0);
   if (status != ob::PlannerStatus::EXACT_SOLUTION) {
-    r.hit_time_limit = status == ob::PlannerStatus::TIMEOUT || r.plan_seconds >= o.time_limit;
+    // The budget's own clock says whether it ran out (OMPL times it on the system clock, and a
+    // planner that ends with an approximate solution does not say TIMEOUT; our steady clock's
+    // plan_seconds may fall a hair short of the limit).
+    r.hit_time_limit = status == ob::PlannerStatus::TIMEOUT || budget();
     r.kind = FailureKind::kPlanning;
     r.reason = std::string("planner ") + o.planner + ": " + status.asString();
     r.collision_checks = checker.checks() - checks0;
