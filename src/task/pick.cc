@@ -170,6 +170,7 @@ CloudGraspOptions cloudGraspOptionsFor(const GripperSpec& gripper, const TaskOpt
   co.padding = task.cloudGraspPadding();
   co.seeds = task.cloud_seeds;
   co.min_bite = task.cloud_bite;
+  co.cone = std::min(task.cloud_cone, std::atan(gripper.pad_friction));  // no wider than the pads' own cone
   return co;
 }
 

@@ -93,6 +93,9 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   }
   const Pose T_tcp_now = ctx.robot.fk(q_lift);
   const double yaw_now = yawOf(T_tcp_now.linear());
+  // Held from above, the hand may be set down as tilted as it holds the object (a grasp from the
+  // points may be tilted up to 52 degrees), or 45 degrees if that is more.
+  const double max_tilt = std::max(M_PI / 4, std::acos(std::clamp(-T_tcp_now.linear()(2, 2), -1.0, 1.0)) + 1e-6);
   struct Option {
     double cost;
     Pose T_tcp, T_target;  // the TCP there, and the object's target it realizes
@@ -137,7 +140,7 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
       options.push_back({later + angleBetween(T_tcp.linear(), T_tcp_now.linear()), T_tcp, T_realized, turn});
       continue;
     }
-    if (tilt > M_PI / 4) continue;
+    if (tilt > max_tilt) continue;
     options.push_back({later + std::abs(wrapAngle(yawOf(T_tcp.linear()) - yaw_now)) + 2 * tilt, T_tcp, T_realized, turn});
   }
   std::stable_sort(options.begin(), options.end(), [](const Option& a, const Option& b) { return a.cost < b.cost; });

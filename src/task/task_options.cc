@@ -45,6 +45,10 @@ void TaskOptions::declare(ConfigArchive& a) {
   a.value("cloud_bite", cloud_bite, {0.004, 0.03}, "m",
           "cloud grasps: the fingertips reach at least this far past the point a hand is built at (a top-down hand on "
           "an object lying lower than this plus cloud_padding and 2 mm of clearance above the floor has none)");
+  a.value("cloud_cone", cloud_cone, {0.1, 0.8}, "rad",
+          "cloud grasps: the faces the pads meet (fitted to the outermost points between them) must face the closing "
+          "axis within this, the friction cone the detector assumes (0.35: GPD's 20 degrees, a friction coefficient of "
+          "0.36; at most atan of the gripper's pad friction)");
   a.value("max_candidates", max_grasp_candidates, {1, 64}, "", "grasp candidates tried per object before the pick fails");
   a.value("finger_margin", finger_margin, {0.002, 0.04}, "m",
           "fingers open this much wider than the object's half width before the approach");

@@ -63,6 +63,7 @@ struct TaskOptions {
   /// motions near the pile (the planner's, if that is less)
   double cloudGraspPadding() const { return std::min(padding, cloud_padding); }
   double cloud_bite = 0.012;             ///< [m] cloud grasps: the fingertips at least this far past the seed (GPD's init_bite: 0.01)
+  double cloud_cone = 0.35;              ///< [rad] cloud grasps: a contact face's normal within this of the closing axis (GPD's 20 degrees)
   double tight_margin = 0.0;             ///< [m] finger margin and approach padding when nothing fits otherwise (0: never; clutter: 0.004)
   bool weld = false;                     ///< weld-on-grasp (attach plugin) instead of friction
   double drop_distance = 0.03;           ///< [m] object this far from its in-hand pose = dropped
