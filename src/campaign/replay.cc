@@ -206,6 +206,9 @@ DatasetWritten writeDataset(const DatasetOptions& o) {
                                            {"split", o.split},
                                            {"format", "BOP (bop_toolkit docs/bop_datasets_format.md)"}}.dump(2));
   BopWriter writer(root, o.split);
+  for (const std::string& k : cell.spawn.kinds)
+    if (const ObjectKind* kind = cell.spawn.loaded.find(k); kind && kind->solid && kind->symmetries.size() > 1)
+      writer.declareSymmetries(kind->solid->pieces, kind->symmetries);
   TrialRunner runner(e, cell, tree, root.string(), c.meta.value("date", "2000-01-01 00:00:00"));
   runner.setRenderer(setup.renderer.get(), (root / "renders").string(), RenderOptions{});
   Renderer& renderer = *setup.renderer;

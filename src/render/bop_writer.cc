@@ -102,6 +102,10 @@ void BopWriter::beginScene(uint64_t scene) {
   for (const char* sub : {"rgb", "depth", "mask", "mask_visib"}) createDirectories(scene_->dir / sub);
 }
 
+void BopWriter::declareSymmetries(std::shared_ptr<const std::vector<ConvexPiece>> pieces, std::vector<Mat3> group) {
+  declared_[std::move(pieces)] = std::move(group);
+}
+
 int BopWriter::modelId(const SimWorld& world, int object) {
   const auto key = std::make_pair(world.modelSerial(), object);
   if (const auto it = model_of_.find(key); it != model_of_.end()) return it->second;
@@ -113,7 +117,7 @@ int BopWriter::modelId(const SimWorld& world, int object) {
     if (models_[i].digest == m.digest) id = static_cast<int>(i) + 1;
   if (!id) {
     // Symmetries as the harness knows them: a box's rotations onto itself, a cylinder's turns about
-    // its axis and end over end; a mesh object declares none.
+    // its axis and end over end; a mesh object's, those its kind declares (declareSymmetries).
     const ObjectState o = world.object(object);
     json sym = json::object();
     auto flat = [](const Mat3& R) {
@@ -130,6 +134,10 @@ int BopWriter::modelId(const SimWorld& world, int object) {
     } else if (o.shape == ObjectShape::kCylinder) {
       sym["symmetries_continuous"] = json::array({{{"axis", {0, 0, 1}}, {"offset", {0, 0, 0}}}});
       sym["symmetries_discrete"] = json::array({flat(Vec3(1, -1, -1).asDiagonal().toDenseMatrix())});
+    } else if (const auto it = o.pieces ? declared_.find(o.pieces) : declared_.end(); it != declared_.end() && it->second.size() > 1) {
+      json d = json::array();  // every element of the group but the identity (BOP lists them all)
+      for (size_t k = 1; k < it->second.size(); ++k) d.push_back(flat(it->second[k]));
+      sym["symmetries_discrete"] = d;
     }
     m.symmetries = sym;
     models_.push_back(std::move(m));

@@ -43,6 +43,9 @@ class BopWriter {
   /// Adds the view `seen` of `world` as it is now: its depth as the sensor gave it; its colour and
   /// labels rendered again; each object near the view rendered alone for its whole silhouette.
   void addView(Renderer& renderer, const SimWorld& world, const Frame& seen);
+  /// A mesh object's symmetries, as its catalogue kind declares them (`group`: identity first), by
+  /// its collision pieces (the world's objects of that kind share them): written in models_info.
+  void declareSymmetries(std::shared_ptr<const std::vector<ConvexPiece>> pieces, std::vector<Mat3> group);
   /// Writes the open scene's files, the models seen so far, models_info.json and camera.json
   /// (each JSON file by a temporary file and a rename). Throws OutputError when it cannot.
   void finish();
@@ -60,6 +63,7 @@ class BopWriter {
   std::unique_ptr<Scene> scene_;
   std::vector<Model> models_;
   std::map<std::pair<uint64_t, int>, int> model_of_;  ///< (the world's model serial, object) -> obj_id
+  std::map<std::shared_ptr<const std::vector<ConvexPiece>>, std::vector<Mat3>> declared_;  ///< declareSymmetries
   CameraModel camera_;  ///< the last view's (camera.json)
   int views_ = 0, scenes_ = 0;
 };

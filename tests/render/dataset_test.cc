@@ -211,6 +211,19 @@ TEST(Dataset, CatalogueBoxesAndCylindersHaveTheirShapesAndSymmetries) {
   expectBopDataset(fs::path(run) / "bop", 1, 3, 3);
 }
 
+TEST(Dataset, MeshKindsDeclaredSymmetriesAreInModelsInfo) {
+  // known_objects.yaml's kinds: the hex bar (a group of 12), the chamfered block (2) and the frustum
+  // (4) declare theirs; ten objects of five kinds, dropped, put most of them in the first view.
+  testing_cli::TempDir dir;
+  const std::string run = (dir.path() / "run").string();
+  const auto r = testing_cli::runMinimanip("run experiments/known_objects.yaml --trials 1 --jobs 1 --set progress=none "
+                                           "--set objects.count_min=10 --set objects.count_max=10 --out " + run);
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto d = testing_cli::runMinimanip("dataset " + run + " --views 1");
+  ASSERT_EQ(d.code, 0) << d.out;
+  expectBopDataset(fs::path(run) / "bop", 1, 5, 3);
+}
+
 TEST(Dataset, ACampaignWithoutCameraImagesIsExitTwo) {
   testing_cli::TempDir dir;
   const std::string run = (dir.path() / "run").string();
