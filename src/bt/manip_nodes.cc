@@ -58,6 +58,8 @@ class MotionAction : public StatefulActionNode {
  protected:
   /// The motion from where the arm rests; a failure is recorded by the planning function.
   virtual Failure plan(TrialContext& ctx, Plan& out) = 0;
+  /// Called when the plan or its execution failed (the failure already recorded).
+  virtual void failed(TrialContext&) {}
   TrialContext& ctx() const { return *env_.ctx; }
 
   NodeStatus onStart() final {
@@ -75,7 +77,9 @@ class MotionAction : public StatefulActionNode {
       return begin();
     }
     if (!ticket_->done) return NodeStatus::kRunning;
-    return ticket_->result.ok() ? NodeStatus::kSuccess : NodeStatus::kFailure;
+    if (ticket_->result.ok()) return NodeStatus::kSuccess;
+    failed(ctx());
+    return NodeStatus::kFailure;
   }
   void onHalted() final {
     if (!waiting_ && ticket_ && !ticket_->done) ctx().executor.halt();
@@ -92,7 +96,10 @@ class MotionAction : public StatefulActionNode {
   NodeStatus begin() {
     TrialContext& c = ctx();
     Plan p;
-    if (!plan(c, p).ok()) return NodeStatus::kFailure;
+    if (!plan(c, p).ok()) {
+      failed(c);
+      return NodeStatus::kFailure;
+    }
     if (p.steps.empty()) {  // already there
       c.q_rest = p.q_end;
       return NodeStatus::kSuccess;
@@ -146,6 +153,10 @@ class PlanAndExecutePlace final : public MotionAction {
  protected:
   Failure plan(TrialContext& c, Plan& out) override {
     return planPlace(c, getInput<Pose>("place_pose").value(), true, out);
+  }
+  // A place of the object still in the hand failed there: ComputePlacePosition's next_free passes it by.
+  void failed(TrialContext& c) override {
+    if (c.held >= 0) c.place_failed.push_back(getInput<Pose>("place_pose").value().translation());
   }
 };
 
@@ -457,7 +468,7 @@ class VerifyGraspForce final : public TaskAction {
  protected:
   NodeStatus run(TrialContext& c) override {
     const double min_force = getInput<double>("min_force").value();
-    const bool ok = c.held >= 0 && c.hw.gripperForce() >= min_force && c.hw.gripperOpening() >= 0.003;
+    const bool ok = c.held >= 0 && c.hw.gripperForce() >= min_force && c.hw.gripperOpening() >= kEmptyGrip;
     output("result", Any(ok));
     return NodeStatus::kSuccess;
   }
@@ -467,30 +478,46 @@ class ComputePlacePosition final : public TaskAction {
  public:
   using TaskAction::TaskAction;
   static PortsList providedPorts() {
-    return {inputPort<int>("pick_count", "objects placed so far: the slot to fill"),
+    return {optionalInputPort<int>("pick_count", "objects placed so far: the slot to fill (asked unless next_free)"),
+            inputPort<bool>("next_free", "false",
+                            "the nearest slot that nothing was placed at and no place of the object held failed at in this "
+                            "trial, pick_count not read (every free slot failed at: the one failed at least)"),
             outputPort<Pose>("place_pose", "the slot's pose (row by row in the place grid)")};
   }
 
  protected:
   NodeStatus run(TrialContext& c) override {
-    const int k = getInput<int>("pick_count").value();
     const int rows = c.options.place_rows, cols = c.options.place_columns;
-    if (k < 0 || k >= rows * cols) {
-      c.stage("place_slot");
-      return statusOf(c.fail({"place_slot", FailureKind::kPrecondition,
-                              "the place area is full (" + std::to_string(rows * cols) + " slots), slot " + std::to_string(k) + " asked"}));
-    }
-    // The grid's cells, nearest the centre first (row by row among equals): slot 0 is the place
-    // target itself when the grid has a centre cell.
-    std::vector<std::pair<double, Vec3>> cells;
-    for (int row = 0; row < rows; ++row)
-      for (int col = 0; col < cols; ++col) {
-        const Vec3 offset((col - 0.5 * (cols - 1)) * c.options.place_pitch, (row - 0.5 * (rows - 1)) * c.options.place_pitch, 0);
-        cells.push_back({offset.norm(), offset});
-      }
-    std::stable_sort(cells.begin(), cells.end(), [](const auto& a, const auto& b) { return a.first < b.first - 1e-12; });
+    const std::vector<Vec3> cells = placeGridOffsets(c.options);
     Pose T = env_.T_world_place_target;
-    T.translation() += cells[k].second;
+    int k = -1;
+    if (getInput<bool>("next_free").value()) {
+      // What the robot knows of the tray: where it released objects over their targets, and where a
+      // place of the object still held failed (a neighbour in the way, the slot out of reach).
+      std::vector<Vec3> slots, placed;
+      for (const Vec3& offset : cells) slots.push_back(T.translation() + offset);
+      for (const PickRecord& p : c.out.picks)
+        if (p.at_target) placed.push_back(p.T_world_target.translation());
+      k = nextFreeSlot(slots, placed, c.place_failed, c.options.place_pitch);
+      if (k < 0) {
+        c.stage("place_slot");
+        return statusOf(c.fail({"place_slot", FailureKind::kPrecondition,
+                                "the place area is full (" + std::to_string(rows * cols) + " slots, each with an object placed)"}));
+      }
+    } else {
+      const auto count = getInput<int>("pick_count");
+      if (!count) {
+        c.stage("place_slot");
+        return statusOf(c.fail({"place_slot", FailureKind::kPrecondition, "no pick_count given, and next_free not set"}));
+      }
+      k = *count;
+      if (k < 0 || k >= rows * cols) {
+        c.stage("place_slot");
+        return statusOf(c.fail({"place_slot", FailureKind::kPrecondition,
+                                "the place area is full (" + std::to_string(rows * cols) + " slots), slot " + std::to_string(k) + " asked"}));
+      }
+    }
+    T.translation() += cells[static_cast<size_t>(k)];
     c.place_slots.push_back(T.translation());
     output("place_pose", toAny(T));
     return NodeStatus::kSuccess;
@@ -618,7 +645,10 @@ void registerTaskNodes(Factory& f, TaskNodeEnv& env) {
   add<PlanAndExecutePlace>(f, env, "PlanAndExecutePlace",
                            "Plans and executes the place of the held object so it rests at place_pose: move above it, lower, "
                            "open, detach, retreat. FAILURE when nothing is held or no place pose is reachable.");
-  add<MoveToHome>(f, env, "MoveToHome", "Plans and executes a collision-free move to the home configuration (with a held object attached).");
+  add<MoveToHome>(f, env, "MoveToHome",
+                  "Plans and executes a collision-free move to the home configuration (with a held object attached); from a "
+                  "start the planner refuses (within the padding of an obstacle, or inside an object the hand pushed), the "
+                  "hand first leaves straight up as MoveToSafe does.");
   add<MoveToSafe>(f, env, "MoveToSafe", "A straight move of the TCP up by motion.retreat_distance from where it is.");
   add<OpenGripper>(f, env, "OpenGripper", "Opens the gripper fully; a held object is let go of (placed, if a place plan brought it over its target).");
   add<CloseGripper>(f, env, "CloseGripper",
@@ -661,12 +691,13 @@ void registerTaskNodes(Factory& f, TaskNodeEnv& env) {
   add<PlanMTCPlace>(f, env, "PlanMTCPlace", "Plans the place of the held object at place_pose (connect, lower) as the current plan.");
   add<ExecuteMTCPlan>(f, env, "ExecuteMTCPlan", "Executes the current plan; RUNNING while the arm moves.");
   add<VerifyGraspForce>(f, env, "VerifyGraspForce",
-                        "Writes result: an object is held, the fingers stopped on it (>= 3 mm open) and press with at least "
+                        "Writes result: an object is held, the fingers stopped on it (>= 1 mm open each) and press with at least "
                         "min_force. Always SUCCESS.");
   add<ComputePlacePosition>(f, env, "ComputePlacePosition",
                             "The pose of slot pick_count in the place grid (place.rows x place.columns at place.pitch, centred "
-                            "on the scene's place target; slots nearest the centre first, then row by row). FAILURE when the grid "
-                            "is full.");
+                            "on the scene's place target; slots nearest the centre first, then row by row); with next_free, of "
+                            "the first slot with no object released over it and no failed place of the held object. FAILURE when "
+                            "the grid is full.");
   add<IncrementCounter>(f, env, "IncrementCounter", "key += 1.");
   add<ReportCompletion>(f, env, "ReportCompletion", "Records total as the trial's reported count.");
 }

@@ -194,11 +194,11 @@ class PlanExecution final : public Motion {
     if (s.kind == PlanStep::Kind::kGripper) {
       const double opening = static_cast<GripperMotion&>(*m).opening();
       if (s.release) letGo();
-      if (s.take_hold && ctx_.held < 0 && opening >= 0.003) takeHoldOfObjectBetweenFingers(hw);
+      if (s.take_hold && ctx_.held < 0 && opening >= kEmptyGrip) takeHoldOfObjectBetweenFingers(hw);
       if (s.expected_opening > 0) {
         ctx_.out.grasp_opening = opening;
         ctx_.held_record.grasp_opening = opening;
-        if (opening < 0.5 * s.expected_opening || opening < 0.003) {
+        if (opening < 0.5 * s.expected_opening || opening < kEmptyGrip) {
           endAttempt("missed");
           ctx_.failed_grasps.push_back(plan_.T_world_grasp);
           return fail(hw, Failure{s.stage, FailureKind::kGraspMissed,

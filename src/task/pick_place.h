@@ -12,6 +12,10 @@
 
 namespace mm {
 
+/// [m] per finger: fingers closed to less hold nothing (closed on nothing they meet at 0; a hollow
+/// object's 5 mm wall holds each 2 to 2.5 mm open).
+inline constexpr double kEmptyGrip = 0.001;
+
 struct CloudGraspOptions;  // grasp/cloud_grasps.h
 
 // ---- perception ---------------------------------------------------------------------------
@@ -88,6 +92,15 @@ Failure planPick(TrialContext& ctx, const GraspSolution& grasp, Plan& out);
 /// The place of the held object so that it rests at `T_world_object`: connect to the pre-place,
 /// lower; with `release`, also open, detach and retreat. Records "place_pose_ik", "connect_place".
 Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, Plan& out);
+
+/// The place grid's slots as offsets from the place target in the world (place.rows along y,
+/// place.columns along x, place.pitch apart, centred on it), nearest the centre first, row by row among equals.
+std::vector<Vec3> placeGridOffsets(const TaskOptions& o);
+
+/// Of `slots`, the first that no placed object's target is within half a `pitch` of (in the
+/// plane) and no failed place was; when every free one has failed places, the one with fewest; -1
+/// when every slot holds an object.
+int nextFreeSlot(const std::vector<Vec3>& slots, const std::vector<Vec3>& placed, const std::vector<Vec3>& failed, double pitch);
 /// Home from where the arm rests. Records "plan_home".
 Failure planHome(TrialContext& ctx, Plan& out);
 /// A push that moves `object` (one no grasp fits: flush against a neighbour or a wall) clear:

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "core/error.h"
 #include "planning/blend.h"
@@ -249,6 +250,31 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   }
   if (ctx.faults) ctx.faults->onPlanned(ctx, out);
   return done_connect({});
+}
+
+std::vector<Vec3> placeGridOffsets(const TaskOptions& o) {
+  std::vector<std::pair<double, Vec3>> cells;
+  for (int row = 0; row < o.place_rows; ++row)
+    for (int col = 0; col < o.place_columns; ++col) {
+      const Vec3 offset((col - 0.5 * (o.place_columns - 1)) * o.place_pitch, (row - 0.5 * (o.place_rows - 1)) * o.place_pitch, 0);
+      cells.push_back({offset.norm(), offset});
+    }
+  std::stable_sort(cells.begin(), cells.end(), [](const auto& a, const auto& b) { return a.first < b.first - 1e-12; });
+  std::vector<Vec3> out;
+  for (const auto& [distance, offset] : cells) out.push_back(offset);
+  return out;
+}
+
+int nextFreeSlot(const std::vector<Vec3>& slots, const std::vector<Vec3>& placed, const std::vector<Vec3>& failed, double pitch) {
+  auto near = [&](const Vec3& a, const Vec3& b) { return (a - b).head<2>().norm() < 0.5 * pitch; };
+  int best = -1;
+  long fewest = std::numeric_limits<long>::max();
+  for (size_t i = 0; i < slots.size(); ++i) {
+    if (std::any_of(placed.begin(), placed.end(), [&](const Vec3& p) { return near(p, slots[i]); })) continue;
+    const long n = std::count_if(failed.begin(), failed.end(), [&](const Vec3& f) { return near(f, slots[i]); });
+    if (n < fewest) fewest = n, best = static_cast<int>(i);
+  }
+  return best;
 }
 
 }  // namespace mm

@@ -166,6 +166,7 @@ class TrialContext {
   std::optional<Pose> over_target;   ///< set when a place plan has brought the held object over its target
   double over_target_turn = 0;       ///< [rad] that plan's place_turn
   std::vector<Vec3> place_slots;     ///< the place grid's slots ComputePlacePosition gave (an object with no model placed at one is judged in it)
+  std::vector<Vec3> place_failed;    ///< targets a place of the object still held failed at (ComputePlacePosition next_free passes them by)
   std::vector<Pose> failed_grasps;   ///< grasps whose execution failed (not chosen again)
   std::vector<Obstacle> seen_obstacles;  ///< obstacles not part of the cell, as last sensed (planned around)
   /// Camera mode with objects of no model, when a picture asks for it (keep_view): the last view

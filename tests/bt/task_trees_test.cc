@@ -392,6 +392,62 @@ TEST(OwnTrees, ARepeatFillsTheSlotsOfThePlaceGrid) {
   EXPECT_NEAR((r.out.picks[0].T_world_target.translation() - r.out.picks[1].T_world_target.translation()).norm(), 0.06, 1e-9);
 }
 
+TEST(OwnTrees, NextFreeFillsTheSlotsWithNoCounter) {
+  const Result r = runTree(wrap(R"(
+      <Sequence>
+        <Repeat num_cycles="2">
+          <Sequence>
+            <DetectObject object_pose="{p}"/>
+            <PlanAndExecutePick object_pose="{p}"/>
+            <ComputePlacePosition next_free="true" place_pose="{slot}"/>
+            <PlanAndExecutePlace place_pose="{slot}"/>
+          </Sequence>
+        </Repeat>
+        <MoveToHome/>
+      </Sequence>)"),
+                           withCubes(kMock, 2), 3);
+  EXPECT_TRUE(r.out.success) << describe(r.out);
+  ASSERT_EQ(placed(r.out), 2);
+  EXPECT_NEAR((r.out.picks[0].T_world_target.translation() - r.out.picks[1].T_world_target.translation()).norm(), 0.06, 1e-9);
+}
+
+// A 5 mm plate held across its thickness stops each finger 2.5 mm open: held, not "nothing
+// between the fingers" (the generated objects' hollow walls are 5 to 12 mm thick).
+TEST(OwnTrees, AThinPlateHeldAcrossItsThicknessIsHeld) {
+  const fs::path catalogue = fs::temp_directory_path() / ("mm_plate_" + std::to_string(::getpid()) + ".yaml");
+  std::ofstream(catalogue) << "kinds:\n  plate:\n    shape: box\n    size: [0.04, 0.005, 0.05]\n    mass: 0.02\n";
+  const auto upright_in_the_middle = [](SimWorld& w, const std::vector<int>& active) {
+    const auto [T_bin, half] = w.site("bin_region");
+    w.setObjectPose(active.at(0), makePose(T_bin.translation() + Vec3(0, 0, 0.025), Mat3::Identity()));
+  };
+  const Result r = runTree("pick_place.xml", {"hardware=mock", "objects.catalogue=" + catalogue.string(), "objects.kinds=plate",
+                                              "objects.count_min=1", "objects.count_max=1"},
+                           0, nullptr, upright_in_the_middle);
+  fs::remove(catalogue);
+  EXPECT_TRUE(r.out.success) << describe(r.out);
+  ASSERT_EQ(r.out.grasp_attempts.size(), 1u);
+  EXPECT_EQ(r.out.grasp_attempts[0].result, "in_tray");
+  EXPECT_LT(r.out.grasp_opening, 0.003) << "each finger";
+  EXPECT_GT(r.out.grasp_opening, kEmptyGrip);
+}
+
+TEST(PlaceGrid, NextFreePassesFilledSlotsAndThoseAPlaceFailedAt) {
+  TaskOptions o;
+  o.place_rows = 1, o.place_columns = 3, o.place_pitch = 0.1;
+  const std::vector<Vec3> offsets = placeGridOffsets(o);
+  ASSERT_EQ(offsets.size(), 3u);
+  EXPECT_NEAR(offsets[0].norm(), 0.0, 1e-12);  // the centre first
+  std::vector<Vec3> slots;
+  for (const Vec3& d : offsets) slots.push_back(Vec3(0.5, 0.2, 0.05) + d);
+  const Vec3 near0 = slots[0] + Vec3(0.02, -0.03, 0.04);  // within half a pitch in the plane, whatever the height
+  EXPECT_EQ(nextFreeSlot(slots, {}, {}, 0.1), 0);
+  EXPECT_EQ(nextFreeSlot(slots, {near0}, {}, 0.1), 1);
+  EXPECT_EQ(nextFreeSlot(slots, {near0}, {slots[1]}, 0.1), 2);
+  // Every free slot failed at: the one failed at least; every slot filled: none.
+  EXPECT_EQ(nextFreeSlot(slots, {near0}, {slots[1], slots[2], slots[1]}, 0.1), 2);
+  EXPECT_EQ(nextFreeSlot(slots, {slots[0], slots[1], slots[2]}, {}, 0.1), -1);
+}
+
 TEST(OwnTrees, ASwitchAndASubtreeWithRemappedPorts) {
   const Result r = runTree(R"(<root BTCPP_format="4" main_tree_to_execute="Main">
       <BehaviorTree ID="Main">
