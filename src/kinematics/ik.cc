@@ -60,6 +60,7 @@ bool addSolution(IkResult& r, const RobotModel& robot, const IkRequest& req, con
   if (ep > req.tol_position || er > req.tol_rotation) return false;
   for (const auto& s : r.solutions)
     if ((s.q - q).cwiseAbs().maxCoeff() < req.distinct) return false;
+  if (req.valid && !req.valid(q)) return false;
   r.solutions.push_back({q, ep, er});
   r.status = IkStatus::kSuccess;
   return true;

@@ -2,6 +2,7 @@
 // values (status + reason). Each solver is deterministic for a given request (seed configuration,
 // budgets) and RNG stream; the wall-clock cap is only a safety net, and hitting it is reported.
 #pragma once
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -28,6 +29,11 @@ struct IkRequest {
   /// Return the solution nearest the seed (Euclidean in joint space) rather than the first found:
   /// what motion planning wants, at some extra cost (the analytic solver sweeps q7 and refines).
   bool nearest = false;
+  /// Whether a solution is acceptable beyond the limits and the tolerances (free of collision, say:
+  /// MoveIt's GroupStateValidityCallbackFn); none: every one is. A solution it refuses is passed
+  /// over as one outside the limits is (the nearest then is the nearest it accepts), and none is
+  /// returned unless it accepts one. Called from the solve's own thread only.
+  std::function<bool(const VecX&)> valid;
 };
 
 struct IkSolution {
@@ -70,7 +76,7 @@ std::unique_ptr<IkSolver> makeIkSolver(const std::string& name, const RobotModel
 int closestSolution(const IkResult& result, const VecX& reference);
 
 /// Builds a result's common fields: checks a candidate (limits with margin, errors within
-/// tolerance) and adds it when distinct. Returns true when it was added.
+/// tolerance, the request's validity) and adds it when distinct. Returns true when it was added.
 bool addSolution(IkResult& result, const RobotModel& robot, const IkRequest& request, const VecX& q);
 /// Input checks shared by the solvers; fills `result` and returns false on bad input.
 bool validRequest(const RobotModel& robot, const IkRequest& request, IkResult& result);

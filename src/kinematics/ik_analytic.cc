@@ -2,6 +2,7 @@
 // the first q7 whose solutions fit the joint limits wins (or, asking for several solutions, the
 // sweep goes on until enough distinct ones are found). With `polish`, a q7 sample whose solutions
 // miss the limits only slightly seeds the damped least squares solver (the "hybrid").
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -114,11 +115,19 @@ class AnalyticSolver final : public IkSolver {
         if (k != 0) sample(center + k * spacing);
     }
     std::stable_sort(ranked.begin(), ranked.end(), [](auto& a, auto& b) { return a.first < b.first; });
-    for (const auto& [d, q] : ranked)
-      if (addSolution(r, robot_, req, q)) break;  // the nearest that passes the FK check
+    // The nearest that passes the FK check and the request's validity; one within `distinct` of a
+    // refused one is taken as refused too (the fine samples are near-copies of each other).
+    std::vector<VecX> refused;
+    for (const auto& [d, q] : ranked) {
+      if (std::any_of(refused.begin(), refused.end(), [&](const VecX& f) { return (f - q).cwiseAbs().maxCoeff() < req.distinct; }))
+        continue;
+      if (addSolution(r, robot_, req, q)) break;
+      refused.push_back(q);
+    }
     if (r.solutions.empty()) {
       r.status = IkStatus::kNoSolution;
-      r.reason = "no solution within the joint limits over " + std::to_string(r.attempts) + " q7 samples";
+      r.reason = "no solution within the joint limits" + std::string(req.valid ? " that is valid" : "") + " over " +
+                 std::to_string(r.attempts) + " q7 samples";
     }
     return r;
   }

@@ -220,7 +220,8 @@ namespace {
 // collision-free approach and lift), with the checkers of selectGrasp; fills `out`'s motions.
 struct GraspCheckers {
   std::unique_ptr<CollisionChecker> full, no_target;
-  double padding = 0;  ///< [m] theirs, and the lift's
+  double padding = 0;            ///< [m] theirs, and the lift's
+  double finger_opening = 0.04;  ///< [m] the fingers' opening (each) in their scenes
 };
 
 // The robot's padding in a grasp's checks: the tight pass's (margin below finger_margin) is that
@@ -239,7 +240,8 @@ GraspCheckers graspCheckers(const TrialContext& ctx, const ObjectState& object, 
   const double widest = half_width >= 0 ? 2 * half_width : 2 * std::max(object.half_size.x(), object.half_size.y());
   full_scene.finger_opening = approach_scene.finger_opening = std::min(ctx.robot.spec().gripper.travel, widest / 2 + margin);
   const double padding = graspPadding(o, margin, half_width >= 0);
-  return {makeChecker(o.checker, ctx.robot, full_scene, padding), makeChecker(o.checker, ctx.robot, approach_scene, padding), padding};
+  return {makeChecker(o.checker, ctx.robot, full_scene, padding), makeChecker(o.checker, ctx.robot, approach_scene, padding), padding,
+          full_scene.finger_opening};
 }
 
 // The finger margins to try in turn: the configured one, then the tight one in clutter.
@@ -255,9 +257,32 @@ Failure tryGrasp(TrialContext& ctx, const ObjectState& object, const GraspCandid
   const Pose& T_grasp = g.T_world_tcp;
   Pose T_pre = T_grasp;
   T_pre.translation() += approach_distance * g.approach;
-  const IkResult pre = ikFar(ctx, T_pre, ctx.robot.home(), rng);
+  // The pre-grasp nearest home of those free of collision from whose arm the approach's line stays
+  // clear of the arm itself (a redundant arm's other elbow or wrist turn: the nearest one may fold
+  // link on link as the hand goes down, whatever is around); the line is checked in full below.
+  // When there is none, the nearest one, and the checks below say why it fails.
+  PlanningScene alone;
+  alone.finger_opening = checkers.finger_opening;
+  auto self = makeChecker(o.checker, ctx.robot, alone, 0.0);
+  Rng probe_rng = rng;  // the probe's descents leave the trial's stream as it was
+  const IkFunction probe = ikNear(ctx, probe_rng);
+  auto clear = [&](const VecX& q) {
+    if (!checkers.full->isValid(q)) return false;
+    VecX at = q, next;
+    for (int k = 1; k <= 3; ++k) {
+      Pose T = T_pre;
+      T.translation() = T_pre.translation() + (T_grasp.translation() - T_pre.translation()) * (k / 3.0);
+      if (!probe(T, at, next) || !self->isValid(next)) return false;
+      at = next;
+    }
+    return true;
+  };
+  IkResult pre = ikFar(ctx, T_pre, ctx.robot.home(), rng, clear);
+  collision_checks += self->checks();
+  const bool cleared = pre.ok();
+  if (!cleared) pre = ikFar(ctx, T_pre, ctx.robot.home(), rng);
   if (!pre.ok()) return {"grasp_pose_ik", FailureKind::kIk, "pre-grasp: " + pre.reason};
-  if (!checkers.full->isValid(pre.q()))
+  if (!cleared && !checkers.full->isValid(pre.q()))
     return {"grasp_pose_ik", FailureKind::kCollision, "pre-grasp configuration in collision (" + checkers.full->lastCollision() + ")"};
   const IkFunction near = ikNear(ctx, rng);
   out.approach = planCartesianLine(ctx.robot, *checkers.no_target, pre.q(), T_grasp, near, o.cartesian);

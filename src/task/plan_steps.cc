@@ -86,10 +86,11 @@ IkFunction ikNear(TrialContext& ctx, Rng& rng) {
 }
 IkFunction ikNear(TrialContext& ctx) { return ikNear(ctx, ctx.rng_ik); }
 
-IkResult ikFar(TrialContext& ctx, const Pose& T, const VecX& seed, Rng& rng) {
+IkResult ikFar(TrialContext& ctx, const Pose& T, const VecX& seed, Rng& rng, std::function<bool(const VecX&)> valid) {
   IkRequest req = ctx.options.ik;
   req.target = T;
   req.seed = seed;
+  req.valid = std::move(valid);
   req.limit_margin = kLimitMargin;
   req.nearest = true;  // the least joint motion from where the arm will be
   return ctx.ik->solve(req, rng);

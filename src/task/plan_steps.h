@@ -3,6 +3,7 @@
 // time parameterization, blends, plan steps. Internal to src/task/: nothing outside includes it.
 #pragma once
 #include <chrono>
+#include <functional>
 #include <string>
 
 #include "task/pick_place.h"
@@ -46,8 +47,9 @@ PlanningScene planningScene(const TrialContext& ctx, int exclude, bool attached)
 /// below the control period's resolution.
 IkFunction ikNear(TrialContext& ctx, Rng& rng);
 IkFunction ikNear(TrialContext& ctx);
-/// The configured solver, from `seed`, kept kLimitMargin inside the limits, nearest the seed.
-IkResult ikFar(TrialContext& ctx, const Pose& T, const VecX& seed, Rng& rng);
+/// The configured solver, from `seed`, kept kLimitMargin inside the limits, nearest the seed (of
+/// those `valid` accepts, when given).
+IkResult ikFar(TrialContext& ctx, const Pose& T, const VecX& seed, Rng& rng, std::function<bool(const VecX&)> valid = nullptr);
 IkResult ikFar(TrialContext& ctx, const Pose& T, const VecX& seed);
 /// A joint-space path from `start` to `goal` (the optional optimizer after the planner, CHOMP,
 /// counts as planning) and its time parameterization. `checker` validated the path: it also judges

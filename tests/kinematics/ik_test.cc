@@ -61,6 +61,46 @@ TEST_P(EverySolver, SolutionsReproduceTheTargetWithinLimits) {
   EXPECT_GE(ok, GetParam() == "kdl" ? 15 : GetParam() == "kdl_restarts" ? 40 : 59) << GetParam();
 }
 
+// The request's validity check (MoveIt's state validity callback: in a trial, free of collision):
+// every solution returned passes it, and a check that refuses everything leaves no solution and a
+// reason. 20 poses (seed 37); the check asks for q7 above its mid-range.
+TEST_P(EverySolver, EverySolutionPassesTheValidityCheckOrNoneIsReturned) {
+  auto solver = makeIkSolver(GetParam(), panda());
+  Rng poses(37), rng(6);
+  const double mid7 = 0.5 * (panda().lower()[6] + panda().upper()[6]);
+  int ok = 0, calls = 0;
+  for (int i = 0; i < 20; ++i) {
+    IkRequest req;
+    req.target = panda().fk(randomConfig(poses));
+    req.seed = midRange();
+    req.time_cap = 1.0;
+    if (GetParam() == "trac_ik_distance") req.max_iterations = 400;
+    req.valid = [&](const VecX& q) {
+      ++calls;
+      return q[6] > mid7;
+    };
+    const IkResult r = solver->solve(req, rng);
+    if (r.ok()) {
+      ++ok;
+      for (const auto& s : r.solutions) EXPECT_GT(s.q[6], mid7) << GetParam() << ", pose " << i;
+    } else {
+      EXPECT_FALSE(r.reason.empty());
+    }
+    IkRequest never = req;
+    never.valid = [](const VecX&) { return false; };
+    const IkResult none = solver->solve(never, rng);
+    EXPECT_FALSE(none.ok()) << GetParam() << ", pose " << i;
+    EXPECT_TRUE(none.solutions.empty());
+    EXPECT_FALSE(none.reason.empty());
+  }
+  EXPECT_GT(calls, 0);
+  // The closed forms sweep q7 itself: they find that half wherever the other joints' limits leave
+  // it room (16 of the 20 poses).
+  if (GetParam() == "analytic" || GetParam() == "hybrid") {
+    EXPECT_GE(ok, 15);
+  }
+}
+
 TEST_P(EverySolver, UnreachableAndNanFailCleanly) {
   auto solver = makeIkSolver(GetParam(), panda());
   Rng rng(1);
@@ -190,6 +230,34 @@ TEST(IkSolvers, NearestModeReturnsTheBranchOfTheSeed) {
     EXPECT_LE((r.q() - req.seed).norm(), (q - req.seed).norm() + 3e-3) << "configuration " << i;
     EXPECT_LT((r.q() - q).cwiseAbs().maxCoeff(), 0.3) << "configuration " << i;
   }
+}
+
+// Nearest mode with a validity check: the nearest solution the check accepts. Refusing the
+// unchecked answer's neighbourhood gives another, as near as the rest allow, that it accepts.
+TEST(IkSolvers, NearestModeReturnsTheNearestSolutionTheCheckAccepts) {
+  auto solver = makeIkSolver("analytic", panda());
+  Rng rng(41);
+  int moved = 0;
+  for (int i = 0; i < 20; ++i) {
+    IkRequest req;
+    req.target = panda().fk(randomConfig(rng));
+    req.seed = panda().home();
+    req.nearest = true;
+    const IkResult free = solver->solve(req, rng);
+    if (!free.ok()) continue;
+    const VecX q0 = free.q();
+    req.valid = [&](const VecX& q) { return (q - q0).cwiseAbs().maxCoeff() > 0.3; };
+    const IkResult other = solver->solve(req, rng);
+    if (!other.ok()) {
+      EXPECT_THAT(other.reason, testing::HasSubstr("valid"));
+      continue;
+    }
+    ++moved;
+    EXPECT_GT((other.q() - q0).cwiseAbs().maxCoeff(), 0.3) << "pose " << i;
+    EXPECT_GE((other.q() - req.seed).norm(), (q0 - req.seed).norm() - 1e-9) << "pose " << i;
+    EXPECT_LT(poseDistance(panda().fk(other.q()), req.target), 1e-5);
+  }
+  EXPECT_GE(moved, 10);
 }
 
 }  // namespace
