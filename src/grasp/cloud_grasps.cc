@@ -227,6 +227,38 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
     return !(d > 0) || uvz.z() > d + o.unknown_margin;
   };
 
+  // Whether the open fingers of `g` (inner faces `open` from its axis), at the grasp or backed up
+  // its approach by up to 6 cm, enter a box of `o.boxes` not of the object between its pads.
+  // Sampled: the fingers' faces every 4 mm along the pads, their edges and middle across. Which
+  // object is between the pads is asked only when a finger is in some object's box.
+  auto fingersInNeighbour = [&](const GraspCandidate& g, double open) {
+    const Mat3& Rg = g.T_world_tcp.linear();
+    const Vec3 tcp = g.T_world_tcp.translation();
+    const double reach = open + o.finger_thickness + std::abs(o.pad_z_min) + 0.06 + o.pad_half_width;
+    std::vector<const OwnedBox*> near;
+    for (const OwnedBox& b : o.boxes)
+      if ((b.T_world.translation() - tcp).norm() <= reach + b.half.norm() + pad) near.push_back(&b);
+    std::vector<int> owners;  // of the boxes a finger is in
+    for (double back : {0.0, 0.02, 0.04, 0.06})
+      for (int side = -1; side <= 1; side += 2)
+        for (double fx : {-o.pad_half_width, 0.0, o.pad_half_width})
+          for (double fz = o.pad_z_min; fz <= o.pad_z_max + 1e-9; fz += 0.004)
+            for (double fy : {open, open + o.finger_thickness / 2, open + o.finger_thickness}) {
+              const Vec3 p = tcp + Rg * Vec3(fx, side * fy, fz - back);
+              for (const OwnedBox* b : near) {
+                if (std::find(owners.begin(), owners.end(), b->owner) != owners.end()) continue;
+                const Vec3 l = b->T_world.linear().transpose() * (p - b->T_world.translation());
+                if (!((l.cwiseAbs() - b->half).array() <= pad).all()) continue;
+                if (b->owner < 0) return true;  // a patch no object explains is never the one held
+                owners.push_back(b->owner);
+              }
+            }
+    if (owners.empty()) return false;
+    const int target = objectBetweenPads(g, o.objects, o);
+    if (target < 0) return false;  // on none or on two: the caller's assignment drops it
+    return std::any_of(owners.begin(), owners.end(), [&](int k) { return k != target; });
+  };
+
   // The box, in a hand's frame about its seed, that holds every point a test of it reads over
   // all its depths (a conservative bound, 1e-9 wider for the rounding of the tests' sums): across
   // the pads the hand body's half thickness, padded; along the closing axis the farthest point
@@ -519,6 +551,10 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
         const Mat3& Rg = best.T_world_tcp.linear();
         const Vec3 tcp = best.T_world_tcp.translation();
         const double open = best.width / 2 + o.finger_margin;
+        if (!o.boxes.empty() && fingersInNeighbour(best, open)) {
+          ++res.neighbour;
+          continue;
+        }
         int total = 0, hidden = 0;
         for (int side = -1; side <= 1; side += 2)
           for (double fx : {-o.pad_half_width, 0.0, o.pad_half_width})

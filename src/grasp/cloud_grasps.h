@@ -17,8 +17,10 @@
 //      the hand above the floor (the bin's known plane: its points are noise around it), and the
 //      fingers out of the space the camera cannot see (behind an observed surface)
 //   -> kept when enough contacts on each side have normals inside the friction cone about the
-//      closing direction (antipodal), scored by those contacts, the points between the pads, the
-//      tilt and the clearance beside the fingers; near-duplicates suppressed, best first.
+//      closing direction (antipodal), the fingers mostly out of unseen space, and (given the
+//      boxes the planner will check against) out of every box but the held object's; scored by
+//      those contacts, the points between the pads, the tilt and the clearance beside the
+//      fingers; near-duplicates suppressed, best first.
 #pragma once
 #include <vector>
 
@@ -32,6 +34,15 @@ namespace mm {
 /// Points in the world with outward normals (turned towards the camera that saw them).
 struct PointCloud {
   std::vector<Vec3> points, normals;
+};
+
+/// A box the motion planner will check the hand against: a part of a perceived object (`owner`,
+/// its index in CloudGraspOptions::objects) or of nothing perceived (-1: a patch no segment
+/// explains). Half sizes.
+struct OwnedBox {
+  Pose T_world = Pose::Identity();
+  Vec3 half = Vec3::Zero();
+  int owner = -1;
 };
 
 struct CloudGraspOptions {
@@ -76,6 +87,13 @@ struct CloudGraspOptions {
   double pad_z_min = -0.045, pad_z_max = 0.009;  ///< [m] the pads along z (the tip: max)
   double hand_back = 0.0414;        ///< [m] the hand body's front behind the TCP
   double hand_half_thickness = 0.042, hand_half_width = 0.102;  ///< [m] the hand body along x, y
+  // What the planner knows of the bin's contents (none: the points alone). A hand whose open
+  // fingers, at the grasp or up to 6 cm back along its approach, enter one of `boxes` (padded)
+  // that is not of the object between its pads (objectBetweenPads over `objects`) is dropped:
+  // the planner would refuse it, and the points leave room there that the boxes fill (a box
+  // reaches past a round outline's points, and down under what the camera saw).
+  std::vector<ObjectState> objects;
+  std::vector<OwnedBox> boxes;
   // Score weights.
   double contact_weight = 1.0, closure_weight = 1.0, points_weight = 0.5, tilt_weight = 0.5, clearance_weight = 10.0;
 };
@@ -96,7 +114,9 @@ struct CloudGraspResult {
   /// floor (before any depth was right); too few points between the pads, not antipodal (at every
   /// depth); the fingers in unseen space. (A point in the way of both the fingers and the hand
   /// counts as whichever the scan meets first.)
-  int tilted = 0, on_cell = 0, fingers_blocked = 0, hand_blocked = 0, too_wide = 0, too_low = 0, sparse = 0, not_antipodal = 0, unseen = 0;
+  /// And, with CloudGraspOptions::boxes, the fingers in a neighbour's box.
+  int tilted = 0, on_cell = 0, fingers_blocked = 0, hand_blocked = 0, too_wide = 0, too_low = 0, sparse = 0, not_antipodal = 0, unseen = 0,
+      neighbour = 0;
   struct {
     double cloud = 0, hands = 0;  ///< wall-clock seconds (benchmarks print them; nothing decides by them)
   } seconds;

@@ -81,7 +81,20 @@ Failure cloudGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectStat
   Frame frame;
   std::string why;
   if (!captureView(ctx, frame, &why)) return done({"cloud_grasps", FailureKind::kPerception, why});
-  const CloudGraspOptions co = cloudGraspOptionsFor(ctx.robot.spec().gripper, ctx.options, ctx.perception);
+  CloudGraspOptions co = cloudGraspOptionsFor(ctx.robot.spec().gripper, ctx.options, ctx.perception);
+  // The perceived objects and the patches no segment explains, as the planner will see them (a
+  // cylinder as the box around it).
+  auto box = [](const Obstacle& b, int owner) {
+    const bool cylinder = b.type == Obstacle::Type::kCylinder;
+    return OwnedBox{b.T_world, cylinder ? Vec3(b.size.x(), b.size.x(), b.size.y()) : b.size, owner};
+  };
+  for (const ObjectState& o : ctx.objects)
+    if (!picked(ctx, o.index)) {
+      const int owner = static_cast<int>(co.objects.size());
+      co.objects.push_back(o);
+      for (const Obstacle& b : obstaclesOf(o)) co.boxes.push_back(box(b, owner));
+    }
+  for (const Obstacle& b : ctx.seen_obstacles) co.boxes.push_back(box(b, -1));
   const Vec3 preferred_x = ctx.robot.fk(ctx.robot.home()).linear().col(0);
   const CloudGraspResult r = cloudGrasps(frame, co, preferred_x, ctx.rng_grasp);
   int none = 0, several = 0;
@@ -91,9 +104,9 @@ Failure cloudGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectStat
     if (r.candidates.empty())
       std::snprintf(buf, sizeof buf,
                     "no grasp from the camera's points (%d hands from %d seeds: %d too wide, %d too low, %d on the floor or a wall, %d fingers' "
-                    "and %d hand's approach blocked, %d sparse, %d not antipodal, %d into unseen space, %d tilted)",
-                    r.hands, r.seeds, r.too_wide, r.too_low, r.on_cell, r.fingers_blocked, r.hand_blocked, r.sparse, r.not_antipodal, r.unseen,
-                    r.tilted);
+                    "and %d hand's approach blocked, %d sparse, %d not antipodal, %d into a neighbour, %d into unseen space, %d tilted)",
+                    r.hands, r.seeds, r.too_wide, r.too_low, r.on_cell, r.fingers_blocked, r.hand_blocked, r.sparse, r.not_antipodal,
+                    r.neighbour, r.unseen, r.tilted);
     else
       std::snprintf(buf, sizeof buf, "no grasp from the camera's points closes on one perceived object (%zu candidates: %d on none, %d on two or more)",
                     r.candidates.size(), none, several);

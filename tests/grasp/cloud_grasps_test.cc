@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <tuple>
 
 #include <fstream>
 
@@ -218,27 +219,48 @@ TEST(CloudGrasps, TheSameViewAndSeedGiveTheSameCandidates) {
 // (Measured: at 15 mm neither finds one. The pads' contact test wants four of its 3 x 6 cells on
 // each side, and a bar's top face seen from above fills one row of three; the noise fills a
 // second at some depths, not at every height.)
-TEST(CloudGrasps, ABarLying16MmTallIsReachedWithTheClutterExperimentsBiteAndPadding) {
+// One box of `size` [m] alone in the bin, spawned and settled from `seed`, seen once by the
+// overhead camera with the stereo noise at 1280 x 960.
+struct LoneBox {
+  ObjectState object;
+  Pose T_bin;
+  Vec3 half;
+  Frame frame;
+};
+LoneBox loneBox(const Vec3& size, uint64_t seed) {
   testing_cli::TempDir dir;
   const std::string catalogue = (dir.path() / "bar.yaml").string();
-  std::ofstream(catalogue) << "kinds:\n  bar:\n    shape: box\n    size: [0.07, 0.022, 0.016]\n    mass: 0.03\n";
+  std::ofstream(catalogue) << "kinds:\n  bar:\n    shape: box\n    size: [" << size.x() << ", " << size.y() << ", " << size.z()
+                           << "]\n    mass: 0.03\n";
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
-  const auto [T_bin, half] = w->site("bin_region");
+  LoneBox out;
+  std::tie(out.T_bin, out.half) = w->site("bin_region");
   SpawnOptions so;
   so.catalogue = catalogue;
   so.kinds = {"bar"};
   so.count_min = so.count_max = 1;
   so.resolve(catalogue);
-  Rng rng = Rng::stream(5, 0, Purpose::kScene);
-  const SpawnResult spawned = spawnObjects(*w, panda(), T_bin, half, rng, so);
-  ASSERT_TRUE(spawned.ok) << spawned.reason;
+  Rng rng = Rng::stream(seed, 0, Purpose::kScene);
+  const SpawnResult spawned = spawnObjects(*w, panda(), out.T_bin, out.half, rng, so);
+  EXPECT_TRUE(spawned.ok) << spawned.reason;
+  if (!spawned.ok) return out;
   w->updateKinematics();
-  const ObjectState bar = w->object(spawned.active.at(0));
+  out.object = w->object(spawned.active.at(0));
+  out.frame = renderer().render(*w, renderer().camera(*w, "overhead_camera", 1280, 960, "(test)"), kDepth);
+  Rng noise = Rng::stream(seed, 0, Purpose::kCamera);
+  applyDepthNoise(out.frame, DepthNoise{}, noise);
+  return out;
+}
+
+TEST(CloudGrasps, ABarLying16MmTallIsReachedWithTheClutterExperimentsBiteAndPadding) {
+  const LoneBox lone = loneBox(Vec3(0.07, 0.022, 0.016), 5);
+  ASSERT_FALSE(lone.object.name.empty());
+  const ObjectState& bar = lone.object;
+  const Pose& T_bin = lone.T_bin;
+  const Vec3& half = lone.half;
+  const Frame& frame = lone.frame;
   const double floor_z = T_bin.translation().z();
   ASSERT_NEAR(bar.T_world_object.translation().z() - floor_z, 0.008, 0.001) << "lying on its widest face";
-  Frame frame = renderer().render(*w, renderer().camera(*w, "overhead_camera", 1280, 960, "(test)"), kDepth);
-  Rng noise = Rng::stream(5, 0, Purpose::kCamera);
-  applyDepthNoise(frame, DepthNoise{}, noise);
   auto detect = [&](double bite, double padding) {
     TaskOptions task;
     task.cloud_bite = bite, task.cloud_padding = padding;
@@ -263,6 +285,46 @@ TEST(CloudGrasps, ABarLying16MmTallIsReachedWithTheClutterExperimentsBiteAndPadd
       EXPECT_GT(tip.z(), floor_z) << k;
     }
   }
+}
+
+// What the planner will check the hand against (CloudGraspOptions::boxes): a hand whose open
+// fingers enter a box that is not of the object between its pads is dropped, as the planner would
+// refuse it; the object's own boxes drop nothing. A bar alone in the bin, and a box put where the
+// best candidate's finger is.
+TEST(CloudGrasps, NoFingerEntersANeighboursBox) {
+  const LoneBox lone = loneBox(Vec3(0.07, 0.025, 0.03), 6);
+  ASSERT_FALSE(lone.object.name.empty());
+  const ObjectState& bar = lone.object;
+  const Frame& frame = lone.frame;
+  CloudGraspOptions o = trialOptions(lone.T_bin, lone.half);
+  auto detect = [&](const CloudGraspOptions& opts) {
+    Rng g = Rng::stream(6, 0, Purpose::kGrasp);
+    return cloudGrasps(frame, opts, Vec3::UnitX(), g);
+  };
+  const CloudGraspResult free = detect(o);
+  ASSERT_FALSE(free.candidates.empty());
+  EXPECT_EQ(free.neighbour, 0);
+  // A 2 x 2 x 6 cm box around the middle of the best candidate's +y finger.
+  const GraspCandidate& best = free.candidates.front();
+  OwnedBox in_the_way;
+  in_the_way.T_world = makePose(best.T_world_tcp * Vec3(0, best.width / 2 + o.finger_margin + o.finger_thickness / 2, -0.01),
+                                Mat3::Identity());
+  in_the_way.half = Vec3(0.01, 0.01, 0.03);
+  o.objects = {bar};
+  o.boxes = {in_the_way};
+  const CloudGraspResult blocked = detect(o);
+  EXPECT_GT(blocked.neighbour, 0);
+  for (const GraspCandidate& g : blocked.candidates)
+    for (int side = -1; side <= 1; side += 2) {
+      const Vec3 finger = g.T_world_tcp * Vec3(0, side * (g.width / 2 + o.finger_margin + o.finger_thickness / 2), 0);
+      const Vec3 l = finger - in_the_way.T_world.translation();
+      EXPECT_FALSE((l.cwiseAbs().array() <= in_the_way.half.array()).all()) << "a finger inside the box";
+    }
+  // The same box as the bar's own: nothing is dropped.
+  o.boxes.front().owner = 0;
+  const CloudGraspResult own = detect(o);
+  EXPECT_EQ(own.neighbour, 0);
+  EXPECT_EQ(own.candidates.size(), free.candidates.size());
 }
 
 // Each object of the pile experiment's first rounds (seed 2) alone in the bin where it settled,
