@@ -9,6 +9,8 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "core/obb.h"
+
 namespace mm {
 
 namespace {
@@ -227,32 +229,39 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
     return !(d > 0) || uvz.z() > d + o.unknown_margin;
   };
 
+  // The fingers' samples along the pads (the check of the unseen space below): every 4 mm at most
+  // from the back to the tip, both ends included.
+  std::vector<double> pad_zs;
+  {
+    const int steps = std::max(1, static_cast<int>(std::ceil((o.pad_z_max - o.pad_z_min) / 0.004 - 1e-9)));
+    for (int i = 0; i <= steps; ++i) pad_zs.push_back(o.pad_z_min + (o.pad_z_max - o.pad_z_min) * i / steps);
+  }
+
   // Whether the open fingers of `g` (inner faces `open` from its axis), at the grasp or backed up
-  // its approach by up to 6 cm, enter a box of `o.boxes` not of the object between its pads.
-  // Sampled: the fingers' faces every 4 mm along the pads, their edges and middle across. Which
-  // object is between the pads is asked only when a finger is in some object's box.
+  // its approach by up to 6 cm, enter a box of `o.boxes` (padded) not of the object between its
+  // pads. Each finger's volume over that stretch is one box, tested exactly against each box
+  // nearby. Which object is between the pads is asked only when a finger is in some object's box.
+  constexpr double kBackUp = 0.06;  // [m]
   auto fingersInNeighbour = [&](const GraspCandidate& g, double open) {
     const Mat3& Rg = g.T_world_tcp.linear();
     const Vec3 tcp = g.T_world_tcp.translation();
-    const double reach = open + o.finger_thickness + std::abs(o.pad_z_min) + 0.06 + o.pad_half_width;
-    std::vector<const OwnedBox*> near;
-    for (const OwnedBox& b : o.boxes)
-      if ((b.T_world.translation() - tcp).norm() <= reach + b.half.norm() + pad) near.push_back(&b);
+    const double within = open + o.finger_thickness + std::abs(o.pad_z_min) + kBackUp + o.pad_half_width;
+    OrientedBox finger[2];
+    for (int k = 0; k < 2; ++k) {
+      const int side = k == 0 ? -1 : 1;
+      finger[k].axes = Rg;
+      finger[k].half = Vec3(o.pad_half_width, o.finger_thickness / 2, (o.pad_z_max - o.pad_z_min + kBackUp) / 2);
+      finger[k].centre = tcp + Rg * Vec3(0, side * (open + o.finger_thickness / 2), (o.pad_z_max + o.pad_z_min - kBackUp) / 2);
+    }
     std::vector<int> owners;  // of the boxes a finger is in
-    for (double back : {0.0, 0.02, 0.04, 0.06})
-      for (int side = -1; side <= 1; side += 2)
-        for (double fx : {-o.pad_half_width, 0.0, o.pad_half_width})
-          for (double fz = o.pad_z_min; fz <= o.pad_z_max + 1e-9; fz += 0.004)
-            for (double fy : {open, open + o.finger_thickness / 2, open + o.finger_thickness}) {
-              const Vec3 p = tcp + Rg * Vec3(fx, side * fy, fz - back);
-              for (const OwnedBox* b : near) {
-                if (std::find(owners.begin(), owners.end(), b->owner) != owners.end()) continue;
-                const Vec3 l = b->T_world.linear().transpose() * (p - b->T_world.translation());
-                if (!((l.cwiseAbs() - b->half).array() <= pad).all()) continue;
-                if (b->owner < 0) return true;  // a patch no object explains is never the one held
-                owners.push_back(b->owner);
-              }
-            }
+    for (const OwnedBox& b : o.boxes) {
+      if ((b.T_world.translation() - tcp).norm() > within + b.half.norm() + pad) continue;
+      if (std::find(owners.begin(), owners.end(), b.owner) != owners.end()) continue;
+      const OrientedBox box{b.T_world.translation(), b.T_world.linear(), b.half + Vec3::Constant(pad)};
+      if (!boxesOverlap(finger[0], box) && !boxesOverlap(finger[1], box)) continue;
+      if (b.owner < 0) return true;  // a patch no object explains is never the one held
+      owners.push_back(b.owner);
+    }
     if (owners.empty()) return false;
     const int target = objectBetweenPads(g, o.objects, o);
     if (target < 0) return false;  // on none or on two: the caller's assignment drops it
@@ -558,7 +567,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
         int total = 0, hidden = 0;
         for (int side = -1; side <= 1; side += 2)
           for (double fx : {-o.pad_half_width, 0.0, o.pad_half_width})
-            for (double fz = o.pad_z_min; fz <= o.pad_z_max + 1e-9; fz += 0.004)
+            for (const double fz : pad_zs)
               for (double fy : {open, open + o.finger_thickness}) {
                 ++total;
                 hidden += unseen(tcp + Rg * Vec3(fx, side * fy, fz));
