@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <tuple>
 #include <unordered_map>
 
 #include <Eigen/Eigenvalues>
@@ -83,6 +84,13 @@ enum CellPart : char { kNotCell = 0, kFloor = 1, kWall = 2 };
 struct Local {
   Vec3 p;
   char part;  // CellPart
+};
+
+// A point between the pads as its sort along the closing axis reads it: its y, and its place in
+// its list shifted left by one over a bit set for a wall's point.
+struct PadKey {
+  double y;
+  uint32_t at;
 };
 
 }  // namespace
@@ -215,9 +223,17 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
       k = e;
     }
   }
-  // The neighbourhood a hand can touch: its fingers, its body and the straight approach.
-  const double reach = std::max({o.hand_half_width, o.hand_opening / 2 + o.finger_thickness}) + o.padding +
-                       std::max(o.hand_back + o.hand_length + o.approach_clear, o.pad_z_max) + 0.01;
+  // The tested points in that order: a coordinate to an array, and what they are of the cell.
+  std::vector<double> tx(tested.size()), ty(tested.size()), tz(tested.size());
+  std::vector<unsigned char> t_on_plane(tested.size()), t_floor(tested.size());
+  std::vector<char> t_cell(tested.size());
+  for (size_t k = 0; k < tested.size(); ++k) {
+    const int i = tested[k];
+    tx[k] = P[i].x(), ty[k] = P[i].y(), tz[k] = P[i].z();
+    t_on_plane[k] = on_plane[i];
+    t_floor[k] = cell[i] == kFloor;
+    t_cell[k] = cell[i];
+  }
   const Grid grid(P, 0.02);
   const double pad = o.padding;
   const CameraModel& cam = frame.camera;
@@ -268,26 +284,33 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
     return std::any_of(owners.begin(), owners.end(), [&](int k) { return k != target; });
   };
 
-  // The box, in a hand's frame about its seed, that holds every point a test of it reads over
-  // all its depths (a conservative bound, 1e-9 wider for the rounding of the tests' sums): across
-  // the pads the hand body's half thickness, padded; along the closing axis the farthest point
-  // between the pads plus the hand's padded half width, or the finger's padded reach and the
-  // clearance's 2 cm; along the approach from the body's back at the end of the approach at the
-  // shallowest depth to the padded fingertips at the deepest.
+  // In a hand's frame about its seed, the points a test of it reads over all its depths lie in two
+  // boxes (conservative bounds, 1e-9 wider for the rounding of the tests' sums): the fingers' slab
+  // (the fingers' padded sweep along the approach, the points between and beside the pads) and
+  // the hand body's (its padded sweep behind the fingers). Along the closing axis both reach the
+  // farthest point between the pads plus the hand's padded half width, or the finger's padded
+  // reach and the clearance's 2 cm.
   const double d_first = o.min_bite - o.pad_z_max, d_last = -o.pad_z_min + 1e-9;
   const double half_span = o.hand_opening / 2 + o.finger_thickness;
-  const double box_x = std::max(o.hand_half_thickness, o.pad_half_width) + o.padding + 1e-9;
   const double box_y = half_span + std::max(o.hand_half_width + o.padding, half_span + std::max(o.padding, 0.02)) + 1e-9;
-  const double box_z_lo = d_first + std::min({o.pad_z_min, -o.hand_back - o.approach_clear, -o.hand_back - o.hand_length - o.approach_clear}) - 1e-9;
-  const double box_z_hi = d_last + std::max(o.pad_z_max, -o.hand_back) + o.padding + 1e-9;
+  const double fingers_x = o.pad_half_width + o.padding + 1e-9;
+  const double fingers_z_lo = d_first + std::min(o.pad_z_min, -o.hand_back - o.approach_clear) - 1e-9;
+  const double fingers_z_hi = d_last + o.pad_z_max + o.padding + 1e-9;
+  const double body_x = o.hand_half_thickness + o.padding + 1e-9;
+  const double body_z_lo = d_first - o.hand_back - o.hand_length - o.approach_clear - 1e-9;
+  const double body_z_hi = d_last - o.hand_back + o.padding + 1e-9;
   // Along the approach, the pads' span over all depths.
   const double pads_z_lo = d_first + o.pad_z_min - 1e-9, pads_z_hi = d_last + o.pad_z_max + 1e-9;
-  std::vector<int> near, frame_nb;
+  // The farthest a point of those boxes is from the seed: a block farther than this and its own
+  // radius holds none.
+  double reach = 0;
+  for (const auto& [bx, bz_lo, bz_hi] : {std::tuple{fingers_x, fingers_z_lo, fingers_z_hi}, std::tuple{body_x, body_z_lo, body_z_hi},
+                                         std::tuple{o.pad_half_width, pads_z_lo, pads_z_hi}})
+    reach = std::max(reach, std::hypot(bx, box_y, std::max(std::abs(bz_lo), std::abs(bz_hi))));
+  std::vector<int> frame_nb;
   std::vector<Block> blocks;
-  std::vector<double> rx, ry, rz, lx, ly, lz;
-  std::vector<int> obstacle_list, pad_list;  // indices into `near`
-  std::vector<unsigned char> near_on_plane, near_floor;  // of the points of `near`
-  std::vector<Local> obstacles, pads;
+  std::vector<Local> obstacles, pads, unsorted_pads;
+  std::vector<PadKey> pad_keys;
   std::vector<std::pair<double, bool>> ys;
   std::vector<GraspCandidate> found;
   const int n_seeds = std::min<int>(o.seeds, static_cast<int>(seedable.size()));
@@ -326,29 +349,13 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
       }
       for (int k = 1; k < 4; ++k) axes.push_back(Eigen::AngleAxisd(M_PI / 4 * k, normal) * axes[0]);
     }
-    // The points within reach (the whole pile, mostly) but the floor's within its noise, which no
-    // test reads (the floor is checked as its plane), kept by block with each block's centre
-    // about the seed.
-    near.clear();
+    // The blocks within reach (the whole pile, mostly) of the tested points (all but the floor's
+    // within its noise, which no test reads: the floor is checked as its plane), each block's
+    // centre about the seed.
     blocks.clear();
-    for (const Block& b : all_blocks) {
-      const double dc = (b.centre - ps).norm();
-      if (dc > reach + b.radius + 1e-9) continue;
-      const size_t first = near.size();
-      for (size_t k = b.first; k < b.last; ++k)
-        if ((P[tested[k]] - ps).squaredNorm() <= reach * reach) near.push_back(tested[k]);
-      if (near.size() > first) blocks.push_back({b.centre - ps, b.radius, first, near.size(), b.half});
-    }
-    // Their offsets from the seed, a coordinate to an array, and what they are of the cell.
-    for (auto* r : {&rx, &ry, &rz}) r->resize(near.size());
-    near_on_plane.resize(near.size());
-    near_floor.resize(near.size());
-    for (size_t k = 0; k < near.size(); ++k) {
-      const Vec3 r = P[near[k]] - ps;
-      rx[k] = r.x(), ry[k] = r.y(), rz[k] = r.z();
-      near_on_plane[k] = on_plane[near[k]];
-      near_floor[k] = cell[near[k]] == kFloor;
-    }
+    for (const Block& b : all_blocks)
+      if ((b.centre - ps).norm() <= reach + b.radius + 1e-9) blocks.push_back({b.centre - ps, b.radius, b.first, b.last, b.half});
+    const double sx0 = ps.x(), sy0 = ps.y(), sz0 = ps.z();
     for (const Vec3& ax : axes) {
       const Vec3 binormal = ax.cross(normal).normalized();
       // The approaches: -normal turned about the axis; each hand also rolled about its approach to
@@ -377,46 +384,59 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
         Vec3 x = y.cross(z);
         Mat3 R;
         R << x, y, z;
-        // The points in the hand's frame inside the box its fingers, body and approach can reach
-        // at any depth; a block whose bounding box (or ball) misses the box is skipped whole.
-        for (auto* l : {&lx, &ly, &lz}) l->resize(near.size());
-        // Inside the box, the obstacles (but the floor within its noise, checked as the plane) and
-        // the points that may lie between the pads at some depth (the contacts; not the floor's),
-        // each list in the order of `near` (blocks come in its order), built without a branch.
-        obstacle_list.resize(near.size());
-        pad_list.resize(near.size());
-        size_t n_obstacles = 0, n_pads = 0;
-        for (const Block& b : blocks) {
+        // The tested points in the hand's frame, by blocks: a block whose bounding box (or ball)
+        // misses a box [-hx, hx] x [-hy, hy] x [zlo, zhi] of the hand's frame holds none of its
+        // points and is skipped whole. Both passes below move a point by the same expression, so
+        // it has the same coordinates in each.
+        auto blockMeets = [&](const Block& b, double hx, double hy, double zlo, double zhi) {
           // The block's reach along each axis: its bounding box's (its ball's, if less).
           const double bx = x.dot(b.centre), by = y.dot(b.centre), bz = z.dot(b.centre);
           const double sx = std::min(b.radius, x.cwiseAbs().dot(b.half)) + 1e-9, sy = std::min(b.radius, y.cwiseAbs().dot(b.half)) + 1e-9,
                        sz = std::min(b.radius, z.cwiseAbs().dot(b.half)) + 1e-9;
-          if (std::abs(bx) > box_x + sx || std::abs(by) > box_y + sy || bz < box_z_lo - sz || bz > box_z_hi + sz) continue;
+          return std::abs(bx) <= hx + sx && std::abs(by) <= hy + sy && bz >= zlo - sz && bz <= zhi + sz;
+        };
+        // The points that may lie between the pads at some depth (the contacts; not the floor's),
+        // read first: most hands end on them alone (too wide, on a wall, too low).
+        unsorted_pads.clear();
+        for (const Block& b : blocks) {
+          if (!blockMeets(b, o.pad_half_width, half_span, pads_z_lo, pads_z_hi)) continue;
           for (size_t k = b.first; k < b.last; ++k) {
-            const double px = x.x() * rx[k] + x.y() * ry[k] + x.z() * rz[k];
-            const double py = y.x() * rx[k] + y.y() * ry[k] + y.z() * rz[k];
-            const double pz = z.x() * rx[k] + z.y() * ry[k] + z.z() * rz[k];
-            lx[k] = px, ly[k] = py, lz[k] = pz;
-            const bool inside = (std::abs(px) <= box_x) & (std::abs(py) <= box_y) & (pz >= box_z_lo) & (pz <= box_z_hi);
-            obstacle_list[n_obstacles] = pad_list[n_pads] = static_cast<int>(k);
-            n_obstacles += inside & !near_on_plane[k];
-            n_pads += inside & (pz >= pads_z_lo) & (pz <= pads_z_hi) & (std::abs(px) <= o.pad_half_width) & (std::abs(py) <= half_span) & !near_floor[k];
+            const double px = x.x() * (tx[k] - sx0) + x.y() * (ty[k] - sy0) + x.z() * (tz[k] - sz0);
+            const double py = y.x() * (tx[k] - sx0) + y.y() * (ty[k] - sy0) + y.z() * (tz[k] - sz0);
+            const double pz = z.x() * (tx[k] - sx0) + z.y() * (ty[k] - sy0) + z.z() * (tz[k] - sz0);
+            if ((std::abs(px) <= o.pad_half_width) & (std::abs(py) <= half_span) & (pz >= pads_z_lo) & (pz <= pads_z_hi) & !t_floor[k])
+              unsorted_pads.push_back({Vec3(px, py, pz), t_cell[k]});
           }
         }
-        obstacle_list.resize(n_obstacles);
-        pad_list.resize(n_pads);
-        pads.clear();
-        for (const int k : pad_list) pads.push_back({Vec3(lx[k], ly[k], lz[k]), cell[near[k]]});
         // Across the pads, a wall's point after an object's at the same y: each depth's run along y
-        // (ys) is then read in order, with no sort of its own.
-        std::sort(pads.begin(), pads.end(), [](const Local& a, const Local& b) {
-          return a.p.y() < b.p.y() || (a.p.y() == b.p.y() && (a.part == kWall) < (b.part == kWall));
-        });
+        // (ys) is then read in order, with no sort of its own. Sorted by small keys (y, a wall's
+        // bit and the place), then gathered.
+        pad_keys.clear();
+        for (size_t j = 0; j < unsorted_pads.size(); ++j)
+          pad_keys.push_back({unsorted_pads[j].p.y(), static_cast<uint32_t>(j << 1 | (unsorted_pads[j].part == kWall))});
+        std::sort(pad_keys.begin(), pad_keys.end(),
+                  [](const PadKey& a, const PadKey& b) { return a.y < b.y || (a.y == b.y && (a.at & 1) < (b.at & 1)); });
+        pads.clear();
+        for (const PadKey& key : pad_keys) pads.push_back(unsorted_pads[key.at >> 1]);
+        // The obstacles (but the floor within its noise, checked as the plane) in the boxes the
+        // fingers and the body sweep at some depth, block by block in the tested points' order:
+        // only when a depth first sweeps the hand.
         obstacles.clear();
         bool have_obstacles = false;
         auto obstaclesOf = [&]() -> const std::vector<Local>& {
           if (!have_obstacles)
-            for (const int k : obstacle_list) obstacles.push_back({Vec3(lx[k], ly[k], lz[k]), cell[near[k]]});
+            for (const Block& b : blocks) {
+              if (!blockMeets(b, fingers_x, box_y, fingers_z_lo, fingers_z_hi) && !blockMeets(b, body_x, box_y, body_z_lo, body_z_hi)) continue;
+              for (size_t k = b.first; k < b.last; ++k) {
+                const double px = x.x() * (tx[k] - sx0) + x.y() * (ty[k] - sy0) + x.z() * (tz[k] - sz0);
+                const double py = y.x() * (tx[k] - sx0) + y.y() * (ty[k] - sy0) + y.z() * (tz[k] - sz0);
+                const double pz = z.x() * (tx[k] - sx0) + z.y() * (ty[k] - sy0) + z.z() * (tz[k] - sz0);
+                const double across = std::abs(px);
+                const bool fingers = (across <= fingers_x) & (pz >= fingers_z_lo) & (pz <= fingers_z_hi);
+                const bool body = (across <= body_x) & (pz >= body_z_lo) & (pz <= body_z_hi);
+                if ((fingers | body) & (std::abs(py) <= box_y) & !t_on_plane[k]) obstacles.push_back({Vec3(px, py, pz), t_cell[k]});
+              }
+            }
           have_obstacles = true;
           return obstacles;
         };

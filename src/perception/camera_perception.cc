@@ -731,17 +731,19 @@ void applyDepthNoise(Frame& f, const DepthNoise& noise, Rng& rng) {
       // Every pixel draws the same numbers whatever happens to it, so the streams stay aligned.
       const double gauss = rng.normal(), drop = rng.uniform();
       if (z <= 0) continue;
-      float lo = z, hi = z;
-      for (int dv = -1; dv <= 1; ++dv)
-        for (int du = -1; du <= 1; ++du) {
-          const int uu = std::clamp(u + du, 0, w - 1), vv = std::clamp(v + dv, 0, h - 1);
-          const float zz = at(uu, vv);
-          if (zz <= 0) continue;
-          lo = std::min(lo, zz), hi = std::max(hi, zz);
+      if (drop < noise.edge_dropout) {  // the neighbourhood is read only where the pixel would drop at an edge
+        float lo = z, hi = z;
+        for (int dv = -1; dv <= 1; ++dv)
+          for (int du = -1; du <= 1; ++du) {
+            const int uu = std::clamp(u + du, 0, w - 1), vv = std::clamp(v + dv, 0, h - 1);
+            const float zz = at(uu, vv);
+            if (zz <= 0) continue;
+            lo = std::min(lo, zz), hi = std::max(hi, zz);
+          }
+        if (hi - lo > noise.edge_jump) {
+          z = 0;
+          continue;
         }
-      if (hi - lo > noise.edge_jump && drop < noise.edge_dropout) {
-        z = 0;
-        continue;
       }
       z = static_cast<float>(z + gauss * noise.k * z * z);
     }
