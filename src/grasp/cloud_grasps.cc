@@ -28,7 +28,7 @@ int64_t cellKey(const Eigen::Vector3i& c) {
 // The cells over the points' bounding box, each cell's points in the cloud's order.
 class Grid {
  public:
-  Grid(const std::vector<Vec3>& points, double cell) : points_(points), cell_(cell) {
+  Grid(const std::vector<Vec3>& points, double cell) : cell_(cell) {
     if (points.empty()) return;
     lo_ = hi_ = cellOf(points[0]);
     std::vector<int> of(points.size());
@@ -43,20 +43,26 @@ class Grid {
     index_.resize(points.size());
     std::vector<int> fill(start_.begin(), start_.end() - 1);
     for (size_t i = 0; i < points.size(); ++i) index_[fill[of[i]]++] = static_cast<int>(i);
+    // The points' coordinates in the same order, an array each: a cell's are read in a row.
+    for (auto* c : {&xs_, &ys_, &zs_}) c->resize(points.size());
+    for (size_t k = 0; k < index_.size(); ++k) {
+      const Vec3& q = points[static_cast<size_t>(index_[k])];
+      xs_[k] = q.x(), ys_[k] = q.y(), zs_[k] = q.z();
+    }
   }
   /// Indices of the points within `r` of `p`, cell by cell (x, then y, then z), each cell's in
   /// the cloud's order (the same for the same cloud).
   void near(const Vec3& p, double r, std::vector<int>& out) const {
     out.clear();
-    if (points_.empty()) return;
+    if (index_.empty()) return;
     const Eigen::Vector3i a = cellOf(p - Vec3::Constant(r)).cwiseMax(lo_), b = cellOf(p + Vec3::Constant(r)).cwiseMin(hi_);
     for (int x = a.x(); x <= b.x(); ++x)
       for (int y = a.y(); y <= b.y(); ++y)
         for (int z = a.z(); z <= b.z(); ++z) {
           const int c = flat({x, y, z});
           for (int k = start_[c]; k < start_[c + 1]; ++k) {
-            const int i = index_[k];
-            if ((points_[i] - p).squaredNorm() <= r * r) out.push_back(i);
+            const double dx = xs_[k] - p.x(), dy = ys_[k] - p.y(), dz = zs_[k] - p.z();
+            if (dx * dx + dy * dy + dz * dz <= r * r) out.push_back(index_[k]);
           }
         }
   }
@@ -64,10 +70,10 @@ class Grid {
  private:
   Eigen::Vector3i cellOf(const Vec3& p) const { return (p / cell_).array().floor().cast<int>(); }
   int flat(const Eigen::Vector3i& c) const { return ((c.x() - lo_.x()) * dims_.y() + (c.y() - lo_.y())) * dims_.z() + (c.z() - lo_.z()); }
-  const std::vector<Vec3>& points_;
   double cell_;
   Eigen::Vector3i lo_, hi_, dims_;
   std::vector<int> start_, index_;  // each cell's first place in index_; the points by cell
+  std::vector<double> xs_, ys_, zs_;  // their coordinates, in index_'s order
 };
 
 // The points at [first, last) of a list of a cloud's indices, all within `radius` of `centre`.
