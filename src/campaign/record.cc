@@ -164,7 +164,7 @@ void TrialRecord::describe(RecordArchive& a) {
     PoseViewRecord& k = o.pose_views[i];
     v.field("time", k.time, "s", "simulated, since the trial began");
     v.field("width", k.width, "px", "the image's width (BOP scales MSPD by 640 / width before its thresholds)");
-    v.field("segments", k.segments, "", "the depth's segments the models were tried on");
+    v.field("segments", k.segments, "", "the depth's segments and their parts the models were tried on");
     v.field("posed", k.posed, "", "of them, posed by a model");
     v.field("seconds", k.seconds, "s", "wall: the view's pose estimation, every segment's (measured; decides nothing)");
     size_t n_targets = k.targets.size();

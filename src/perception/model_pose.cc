@@ -481,11 +481,12 @@ struct ModelPoseEstimator::Impl {
         const bool mine = mask.has(u, v);
         if (zm > 0) {
           if (!(zo > 0)) continue;  // no depth there: no evidence
+          ++r.drawn;
           const double tol = o.agree + 3 * o.depth_sigma_k * zm * zm;
           if (std::abs(zo - zm) <= tol) ++r.agree;
           else if (zo > zm + tol || mine) ++r.contradict;  // seen past the model, or its own surface in front of it
         } else if (mine) {
-          ++r.contradict;  // the segment where the model is not
+          ++r.contradict, ++r.uncovered;  // the segment where the model is not
         }
       }
     r.score = r.agree + r.contradict > 0 ? static_cast<double>(r.agree) / (r.agree + r.contradict) : 0;
@@ -521,6 +522,7 @@ ModelPose ModelPoseEstimator::estimate(const Frame& frame, const Segment& segmen
   const auto t0 = std::chrono::steady_clock::now();
   const Impl& I = *impl_;
   ModelPose best;
+  ModelPose part;  // of the poses that fit a part of the segment (min_fit, min_seen), the one most pixels agree with
   best.reason = "no point pair of the segment matches any model's";
   const SegmentMask mask = maskOf(segment, frame.camera.width);
   Vec3 origin = Vec3::Zero();  // ICP turns the pose about the segment's centroid
@@ -559,10 +561,16 @@ ModelPose ModelPoseEstimator::estimate(const Frame& frame, const Segment& segmen
       const ModelPose r = I.verify(frame, mask, static_cast<int>(k), T);
       ++verified;
       if (r.score > best.score || (r.score == best.score && r.agree > best.agree)) best = r;
+      const int tell = r.agree + r.contradict - r.uncovered;
+      if (tell > 0 && r.agree >= I.o.min_fit * tell && r.agree >= I.o.min_seen * r.drawn && r.agree > part.agree) part = r;
     }
   }
-  best.hypotheses = verified;
   best.ok = best.model >= 0 && best.score >= I.o.min_score;
+  if (!best.ok && part.model >= 0) {  // more than one object in the segment: the one explained best
+    best = part;
+    best.ok = best.partial = true;
+  }
+  best.hypotheses = verified;
   if (!best.ok && best.model >= 0) {
     char buf[160];
     std::snprintf(buf, sizeof buf, "no model explains the segment: the best, %s, agrees with %.0f%% of the pixels that tell (at least %.0f%% needed)",
@@ -577,6 +585,152 @@ ModelPose ModelPoseEstimator::estimate(const Frame& frame, const Segment& segmen
   }
   best.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return best;
+}
+
+ViewPoses ModelPoseEstimator::estimateView(const Frame& frame, const std::vector<Segment>& segments, const SegmentationOptions& so) const {
+  const auto t0 = std::chrono::steady_clock::now();
+  const Impl& I = *impl_;
+  const CameraModel& cam = frame.camera;
+  const Pose T_region_world = so.T_world_region.inverse();
+  const size_t n = static_cast<size_t>(cam.width) * static_cast<size_t>(cam.height);
+  ViewPoses out;
+  std::vector<char> in_bin(n, 0), taken(n, 0);
+  for (const Segment& s : segments)
+    for (int p : s.pixels) in_bin[static_cast<size_t>(p)] = 1;
+  const int margin = std::max(1, static_cast<int>(std::lround(I.o.explain_margin * cam.width / 640.0)));
+
+  // A segment of the given pixels (ascending), their points and top.
+  auto segmentOf = [&](const std::vector<int>& pixels) {
+    Segment s;
+    s.pixels = pixels;
+    for (int p : pixels) {
+      const Vec3 q = cam.unproject(p % cam.width, p / cam.width, frame.depth[static_cast<size_t>(p)]);
+      s.points.push_back(q);
+      s.centroid += q;
+      s.top = std::max(s.top, (T_region_world * q).z());
+    }
+    if (!pixels.empty()) s.centroid /= static_cast<double>(pixels.size());
+    return s;
+  };
+  // Too small to be posed: an obstacle if it rises above the floor's noise (segmentation's rule).
+  auto leftOver = [&](Segment s) {
+    if (static_cast<int>(s.pixels.size()) >= so.min_obstacle_pixels && s.top >= so.min_obstacle_height) out.small.push_back(std::move(s));
+  };
+  // The connected parts of `pixels` (ascending; pixels within `margin` of each other join).
+  auto parts = [&](const std::vector<int>& pixels) {
+    std::vector<std::vector<int>> result;
+    std::unordered_map<int, int> part;  // pixel -> its part (-1: not yet reached)
+    for (int p : pixels) part[p] = -1;
+    for (int seed : pixels) {
+      if (part[seed] >= 0) continue;
+      const int id = static_cast<int>(result.size());
+      result.emplace_back();
+      std::vector<int> stack{seed};
+      part[seed] = id;
+      while (!stack.empty()) {
+        const int p = stack.back();
+        stack.pop_back();
+        result.back().push_back(p);
+        const int u = p % cam.width, v = p / cam.width;
+        for (int dv = -margin; dv <= margin; ++dv)
+          for (int du = -margin; du <= margin; ++du) {
+            const int uu = u + du, vv = v + dv;
+            if (uu < 0 || vv < 0 || uu >= cam.width || vv >= cam.height) continue;
+            const auto it = part.find(vv * cam.width + uu);
+            if (it == part.end() || it->second >= 0) continue;
+            it->second = id;
+            stack.push_back(it->first);
+          }
+      }
+      std::sort(result.back().begin(), result.back().end());
+    }
+    return result;
+  };
+  auto area = [&](const std::vector<int>& pixels) {
+    double a = 0;
+    for (int p : pixels) {
+      const double z = frame.depth[static_cast<size_t>(p)];
+      a += z * z / (cam.fx * cam.fy);
+    }
+    return a;
+  };
+
+  // The largest first (a merged or split object's larger part decides it); ties by first pixel.
+  std::vector<Segment> queue(segments.begin(), segments.end());
+  std::stable_sort(queue.begin(), queue.end(), [](const Segment& a, const Segment& b) { return a.pixels.size() > b.pixels.size(); });
+  for (size_t i = 0; i < queue.size(); ++i) {
+    // What later poses left of it.
+    std::vector<int> mine;
+    for (int p : queue[i].pixels)
+      if (!taken[static_cast<size_t>(p)]) mine.push_back(p);
+    if (mine.empty()) continue;
+    Segment s;
+    if (mine.size() == queue[i].pixels.size()) {
+      s = std::move(queue[i]);
+    } else {  // a pose took some: its connected parts, each posed if large enough
+      bool first = true;
+      for (std::vector<int>& part : parts(mine)) {
+        if (area(part) < I.o.rest_area) {
+          leftOver(segmentOf(part));
+        } else if (first) {
+          s = segmentOf(part), first = false;
+        } else {
+          queue.push_back(segmentOf(part));
+        }
+      }
+      if (first) continue;
+    }
+    ++out.estimates;
+    ModelPose pose = estimate(frame, s);
+    if (!pose.ok) {
+      out.unknown.push_back(std::move(s));
+      continue;
+    }
+    // Its pixels: the bin's pixels not yet taken where the model drawn at the pose, or a pixel of
+    // it within `margin`, is within explain_band of the seen depth.
+    const ObjectModel& m = *I.models[static_cast<size_t>(pose.model)];
+    std::array<int, 4> w = modelWindow(m, pose.T_world_object, cam);
+    std::vector<int> own;
+    if (w[2] > w[0] && w[3] > w[1]) {
+      const ModelDrawing d = drawModel(m, pose.T_world_object, cam, w[0], w[1], w[2], w[3]);
+      for (int v = std::max(0, w[1] - margin); v < std::min(cam.height, w[3] + margin); ++v)
+        for (int u = std::max(0, w[0] - margin); u < std::min(cam.width, w[2] + margin); ++u) {
+          const size_t p = static_cast<size_t>(v) * cam.width + u;
+          const float zo = frame.depth[p];
+          if (!in_bin[p] || taken[p] || !(zo > 0)) continue;
+          bool near = false;
+          for (int dv = -margin; dv <= margin && !near; ++dv)
+            for (int du = -margin; du <= margin && !near; ++du) {
+              const int uu = u + du, vv = v + dv;
+              if (uu < d.u0 || vv < d.v0 || uu >= d.u0 + d.width || vv >= d.v0 + d.height) continue;
+              const float zm = d.at(uu, vv);
+              near = zm > 0 && std::abs(zo - zm) <= I.o.explain_band;
+            }
+          if (near) own.push_back(static_cast<int>(p));
+        }
+    }
+    for (int p : own) taken[static_cast<size_t>(p)] = 1;
+    // What it leaves of its own segment, in parts: posed again if large enough (another object).
+    // Each part is smaller than the segment, so this ends.
+    std::vector<int> rest;
+    for (int p : s.pixels)
+      if (!taken[static_cast<size_t>(p)]) rest.push_back(p);
+    if (rest.size() == s.pixels.size()) {  // it explains none of its own segment: no pose of it
+      for (int p : own) taken[static_cast<size_t>(p)] = 0;
+      out.unknown.push_back(std::move(s));
+      continue;
+    }
+    for (std::vector<int>& part : parts(rest)) {
+      if (area(part) < I.o.rest_area)
+        leftOver(segmentOf(part));
+      else
+        queue.push_back(segmentOf(part));
+    }
+    out.poses.push_back(std::move(pose));
+    out.explained.push_back(segmentOf(own));
+  }
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
 }
 
 }  // namespace mm

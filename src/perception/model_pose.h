@@ -13,7 +13,8 @@
 //               the camera sees past the model or the segment shows what the model does not cover
 //               (both contradict the pose), and where something else stands in front (no evidence).
 // The best-verified pose of any model wins; a segment no model explains well enough keeps no pose
-// (it stays an unknown object). Reads only the frame's depth and camera and the segment's pixels
+// (it stays an unknown object). A whole view (estimateView) is posed segment by segment, each
+// pose's pixels its own, what it leaves of its segment posed again (objects merged in one segment). Reads only the frame's depth and camera and the segment's pixels
 // and points: nothing of the simulator. One thread; the same input gives the same pose.
 #pragma once
 #include <array>
@@ -24,10 +25,9 @@
 #include "core/camera.h"
 #include "core/geometry.h"
 #include "core/symmetry.h"
+#include "perception/segmentation.h"
 
 namespace mm {
-
-struct Segment;  // perception/segmentation.h
 
 /// A known object's model: its surface in the object's frame, and its symmetries.
 struct ObjectModel {
@@ -95,7 +95,18 @@ struct ModelPoseOptions {
   // Verification: drawn and seen depth agree within agree + depth_sigma_k z^2 * 3.
   double agree = 0.004;           ///< [m]
   double depth_sigma_k = 0.0015;  ///< the sensor's depth noise: sigma = k z^2 [1/m]
-  double min_score = 0.6;         ///< the best pose's score must reach this, else no pose
+  double min_score = 0.6;         ///< the best pose's score must reach this, else no pose ...
+  // ... unless the segment holds more than one object (touching objects the segmentation merged):
+  // a pose explaining a part of it is taken when, leaving the segment's pixels it does not cover
+  // aside, this share of the pixels that tell agree with it ...
+  double min_fit = 0.85;
+  double min_seen = 0.4;          ///< ... and at least this share of its drawing is seen (agrees)
+  // A view (estimateView): what a pose does not explain of its segment is posed again when a
+  // connected part of it covers this much of the bin, seen from the camera (as many pixels as a
+  // patch this large facing the camera at their depth).
+  double rest_area = 4e-4;        ///< [m^2]
+  double explain_band = 0.015;    ///< [m] a pixel is the pose's when the model drawn there, or a pixel
+  int explain_margin = 2;         ///< [px at 640 wide] this near, is within this depth of it
 };
 
 struct ModelPose {
@@ -106,9 +117,22 @@ struct ModelPose {
   /// model leaves uncovered contradict it too.
   double score = 0;
   int agree = 0, contradict = 0;
+  int uncovered = 0;                      ///< of contradict: the segment's pixels where the model is not drawn
+  int drawn = 0;                          ///< pixels where the model is drawn and the camera has depth
+  bool partial = false;                   ///< it explains a part of the segment only (min_fit)
   int hypotheses = 0;                     ///< poses verified (every model's)
   double seconds = 0;                     ///< wall clock (benchmarks print it; nothing decides by it)
   std::string reason;                     ///< why no pose (when !ok)
+};
+
+/// A view's known objects: each pose and the pixels it explains; what no model explains.
+struct ViewPoses {
+  std::vector<ModelPose> poses;
+  std::vector<Segment> explained;  ///< each pose's pixels (its segment's and those it took from others)
+  std::vector<Segment> unknown;    ///< segments, or parts of them, no model explains: unknown objects
+  std::vector<Segment> small;      ///< parts left too small to be objects but rising above the floor (obstacles)
+  int estimates = 0;               ///< segments and parts the models were tried on
+  double seconds = 0;              ///< wall clock (measured; decides nothing)
 };
 
 /// The models' point-pair tables are built once; estimate() is const (and safe from many threads).
@@ -122,6 +146,11 @@ class ModelPoseEstimator {
   const std::vector<std::shared_ptr<const ObjectModel>>& models() const;
   /// The pose of the object seen as `segment` (its pixels and points) in `frame` (its depth and camera).
   ModelPose estimate(const Frame& frame, const Segment& segment) const;
+  /// Every segment of a view posed, the largest first. A pose's pixels (where the model drawn at it
+  /// meets the seen depth, its segment's and any other's) are its own: later segments lose them,
+  /// and what it leaves of its segment, in connected parts as large as rest_area, is posed again
+  /// (objects the segmentation merged); smaller parts are obstacles or nothing, by `so`'s rules.
+  ViewPoses estimateView(const Frame& frame, const std::vector<Segment>& segments, const SegmentationOptions& so) const;
   /// Verification of one pose of model `model` (as estimate() scores its hypotheses).
   ModelPose verify(const Frame& frame, const Segment& segment, int model, const Pose& T_world_object) const;
 

@@ -213,33 +213,41 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
     so.region_half = o.crop_half;
     so.region_height = o.crop_height;
     const Segmentation segments = o.segmentation == SegmentationSource::kLabels ? segmentLabels(frame, so) : segmentDepth(frame, so);
-    for (const Segment& s : segments.segments) {
-      // Known objects: the segment posed by their models, and known as the model it is.
-      if (o.known_models && o.models) {
-        const ModelPose mp = o.models->estimate(frame, s);
-        ++pose_view.segments;
-        pose_view.posed += mp.ok;
-        pose_view.seconds += mp.seconds;
-        if (mp.ok) {
-          const ObjectModel& m = *o.models->models()[static_cast<size_t>(mp.model)];
-          ObjectState ob;
-          ob.T_world_object = mp.T_world_object;
-          ob.shape = ObjectShape::kMesh;
-          ob.half_size = m.half_size;
-          ob.mass = m.mass;
-          ob.pieces = m.pieces;
-          r.detections.push_back({ob});
-          posed_by.push_back(mp.model);
-          continue;
-        }
+    // Known objects: the segments posed by their models (the pixels a pose explains are its; what
+    // it leaves of its segment is posed again), each known as the model it is; what no model
+    // explains stays an unknown object.
+    ViewPoses view_poses;
+    const std::vector<Segment>* unknown = &segments.segments;
+    if (o.known_models && o.models) {
+      view_poses = o.models->estimateView(frame, segments.segments, so);
+      pose_view.segments = view_poses.estimates;
+      pose_view.posed = static_cast<int>(view_poses.poses.size());
+      pose_view.seconds = view_poses.seconds;
+      for (const ModelPose& mp : view_poses.poses) {
+        const ObjectModel& m = *o.models->models()[static_cast<size_t>(mp.model)];
+        ObjectState ob;
+        ob.T_world_object = mp.T_world_object;
+        ob.shape = ObjectShape::kMesh;
+        ob.half_size = m.half_size;
+        ob.mass = m.mass;
+        ob.pieces = m.pieces;
+        r.detections.push_back({ob});
+        posed_by.push_back(mp.model);
       }
+      unknown = &view_poses.unknown;
+    }
+    for (const Segment& s : *unknown) {
       r.detections.push_back({segmentObject(s, o.T_world_crop)});
       posed_by.push_back(-1);
     }
     if (ctx.keep_view) {  // for a picture (render.images: segments)
       auto labels = std::make_shared<std::vector<uint16_t>>(frame.depth.size(), 0);
-      for (size_t k = 0; k < segments.segments.size(); ++k)
-        for (int pixel : segments.segments[k].pixels) (*labels)[static_cast<size_t>(pixel)] = static_cast<uint16_t>(k + 1);
+      uint16_t k = 0;
+      for (const std::vector<Segment>* list : {static_cast<const std::vector<Segment>*>(&view_poses.explained), unknown})
+        for (const Segment& s : *list) {
+          ++k;
+          for (int pixel : s.pixels) (*labels)[static_cast<size_t>(pixel)] = k;
+        }
       Frame view;
       view.camera = frame.camera;
       view.depth = frame.depth;
@@ -248,11 +256,12 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
       ctx.last_grasp.reset();  // the grasp drawn over a view is one chosen after it (from the camera's next capture)
     }
     // What no segment explains (a patch too small to be an object) is avoided as its columns.
-    for (const Segment& s : segments.small)
-      for (Obstacle& column : obstaclesOf(segmentObject(s, o.T_world_crop))) {
-        column.name = "unexplained_" + std::to_string(r.unexplained.size());
-        r.unexplained.push_back(std::move(column));
-      }
+    for (const std::vector<Segment>* list : {&segments.small, static_cast<const std::vector<Segment>*>(&view_poses.small)})
+      for (const Segment& s : *list)
+        for (Obstacle& column : obstaclesOf(segmentObject(s, o.T_world_crop))) {
+          column.name = "unexplained_" + std::to_string(r.unexplained.size());
+          r.unexplained.push_back(std::move(column));
+        }
     r.ok = true;
   } else {
     CameraPerceptionOptions co;
