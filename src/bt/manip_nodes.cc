@@ -679,7 +679,8 @@ void registerTaskNodes(Factory& f, TaskNodeEnv& env) {
                               "each group by room to its neighbours, each object's candidates "
                               "by score (up to grasp.max_candidates each). With source cloud (or grasp.source: cloud): "
                               "model-free candidates from a fresh view of the perception camera, each under the perceived "
-                              "object its pads close on, objects in the order of their best candidate. FAILURE when there is none.");
+                              "object its pads close on, objects in the order of their best candidate (after a pick that failed, those within 3 cm "
+                              "of its grasp last). FAILURE when there is none.");
   add<SelectBestGrasp>(f, env, "SelectBestGrasp",
                        "The first candidate that passes the source's filterGrasps (pre-grasp IK, no collision, straight "
                        "approach and lift). FAILURE when none does.");

@@ -474,14 +474,17 @@ std::unique_ptr<Motion> executePlan(TrialContext& ctx, Plan plan) {
 Failure finishExecution(TrialContext& ctx, Motion& m) {
   auto& e = static_cast<PlanExecution&>(m);
   MM_DEMAND(!e.running());
+  const bool pick = e.plan().name == "pick";
   if (e.state() == MotionState::kFailed) {
     ctx.q_rest = ctx.hw.commandedPositions();
+    if (pick) ctx.failed_pick_at = e.plan().T_world_grasp.translation();
     return ctx.fail(e.failure());
   }
   if (e.halted()) {
     ctx.q_rest = ctx.hw.commandedPositions();
     return ctx.fail({e.stageName(), FailureKind::kHalted, "halted by the behavior tree"});
   }
+  if (pick) ctx.failed_pick_at.reset();
   ctx.q_rest = e.plan().q_end;
   if (e.plan().places && ctx.held >= 0) ctx.over_target = e.plan().T_world_target, ctx.over_target_turn = e.plan().place_turn;  // placed but not let go of
   if (e.plan().name == "pick" || e.plan().name == "home") ctx.milestone(e.plan().name);

@@ -33,6 +33,21 @@ namespace {
 
 using PerObject = std::vector<std::pair<ObjectState, std::vector<GraspCandidate>>>;
 
+// [m] an object this near where a pick failed is tried after the others (underObjects).
+constexpr double kRetryDistance = 0.03;
+
+// The distance from `p` to the object as the planner sees it (its boxes, a cylinder as the box
+// around it); 0 inside.
+double distanceToBoxes(const ObjectState& o, const Vec3& p) {
+  double best = INFINITY;
+  for (const Obstacle& b : obstaclesOf(o)) {
+    const Vec3 half = b.type == Obstacle::Type::kBox ? b.size : Vec3(b.size.x(), b.size.x(), b.size.y());
+    const Vec3 local = b.T_world.inverse() * p;
+    best = std::min(best, (local.cwiseAbs() - half).cwiseMax(0.0).norm());
+  }
+  return best;
+}
+
 // A stage of grasp candidates from a view, ended with its failure (or none): its compute time, less
 // `apart` (an external component's own wall time, recorded apart), booked under the pick's planning.
 struct CandidatesStage {
@@ -50,8 +65,9 @@ struct CandidatesStage {
 };
 
 // Each candidate of a grasp from points under the perceived object (not yet picked) its pads close
-// on, in the order of each object's first; `none` and `several` count those closing on no object
-// and on two or more. Returns how many were kept.
+// on, in the order of each object's first (those near where the last pick failed after the
+// others); `none` and `several` count those closing on no object and on two or more. Returns how
+// many were kept.
 int underObjects(const TrialContext& ctx, const std::vector<GraspCandidate>& candidates, const CloudGraspOptions& co, PerObject& out,
                  int& none, int& several) {
   std::vector<ObjectState> known;
@@ -69,6 +85,14 @@ int underObjects(const TrialContext& ctx, const std::vector<GraspCandidate>& can
     ++kept;
     if (slot[k] < 0) slot[k] = static_cast<int>(out.size()), out.push_back({known[k], {}});
     out[slot[k]].second.push_back(g);
+  }
+  // After a pick that failed (the hand stopped on contact, the fingers closed on nothing or did
+  // not close), the objects within kRetryDistance of where it was to close go last: whatever
+  // stopped it is likely still there (a pushed object moves a little), and the round ends after
+  // two failures in a row.
+  if (ctx.failed_pick_at) {
+    const Vec3 at = *ctx.failed_pick_at;
+    std::stable_partition(out.begin(), out.end(), [&](const auto& entry) { return distanceToBoxes(entry.first, at) > kRetryDistance; });
   }
   return kept;
 }
@@ -330,13 +354,19 @@ Failure tryGrasp(TrialContext& ctx, const ObjectState& object, const GraspCandid
   // holds it is unknown. Lifted straight up, the held object leaves such a neighbour as it leaves
   // its support (MoveIt Task Constructor's pick allows the object's collisions with its support
   // surfaces for the lift the same way); the hand and the arm are still checked against it.
-  if (segmentedObjects(ctx.perception)) {
+  // A mesh object's boxes likewise reach past its pieces into the cell's parts it rests on or
+  // against (a wedge's slope toward a bin wall, a tilted piece's box below the floor): a part of
+  // the cell they overlap where it is grasped is left the same way.
+  const bool segmented = segmentedObjects(ctx.perception);
+  if (segmented || object.pieces) {
     for (int k = 0; k < 8 && !lifting->isValid(out.q_grasp); ++k) {
       const std::string hit = lifting->lastCollision(), held = "held object / ";
       const std::string name = hit.compare(0, held.size(), held) == 0 ? hit.substr(held.size()) : "";
-      if (std::none_of(ctx.objects.begin(), ctx.objects.end(), [&](const ObjectState& b) { return b.name == name; }) &&
-          std::none_of(ctx.seen_obstacles.begin(), ctx.seen_obstacles.end(), [&](const Obstacle& b) { return b.name == name; }))
-        break;  // the hand, the arm or a part of the cell: a real collision
+      const bool neighbour =
+          segmented && (std::any_of(ctx.objects.begin(), ctx.objects.end(), [&](const ObjectState& b) { return b.name == name; }) ||
+                        std::any_of(ctx.seen_obstacles.begin(), ctx.seen_obstacles.end(), [&](const Obstacle& b) { return b.name == name; }));
+      const bool cell = object.pieces && std::any_of(ctx.statics.begin(), ctx.statics.end(), [&](const Obstacle& b) { return b.name == name; });
+      if (name.empty() || (!neighbour && !cell)) break;  // the hand or the arm: a real collision
       ls.attached_ignore.push_back(name);
       lifting = makeChecker(o.checker, ctx.robot, ls, lift_padding);
     }

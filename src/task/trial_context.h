@@ -168,6 +168,7 @@ class TrialContext {
   std::vector<Vec3> place_slots;     ///< the place grid's slots ComputePlacePosition gave (an object with no model placed at one is judged in it)
   std::vector<Vec3> place_failed;    ///< targets a place of the object still held failed at (ComputePlacePosition next_free passes them by)
   std::vector<Pose> failed_grasps;   ///< grasps whose execution failed (not chosen again)
+  std::optional<Vec3> failed_pick_at;  ///< the grasp's TCP when the last pick failed (none once a pick succeeds)
   std::vector<Obstacle> seen_obstacles;  ///< obstacles not part of the cell, as last sensed (planned around)
   /// Camera mode with objects of no model, when a picture asks for it (keep_view): the last view
   /// perceived (its camera and depth) and each of its pixels' segment (0: none, k + 1: the k-th).
