@@ -565,6 +565,31 @@ ModelPose ModelPoseEstimator::estimate(const Frame& frame, const Segment& segmen
       if (tell > 0 && r.agree >= I.o.min_fit * tell && r.agree >= I.o.min_seen * r.drawn && r.agree > part.agree) part = r;
     }
   }
+  // The best pose turned half a turn about each axis of its model's bounding box (through its
+  // centre), each refined and verified: a block with chamfers at one end, lying on its side, or a
+  // wedge on its face, gives votes for itself turned over nearly as many as for itself (the
+  // features near the chamfer's edges are left out), and the depth image tells the two apart.
+  if (I.o.turns && best.model >= 0) {
+    const int k = best.model;
+    const ObjectModel& m = *I.models[static_cast<size_t>(k)];
+    Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
+    for (const Vec3& v : m.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+    const Vec3 c = (lo + hi) / 2;
+    const Pose found = best.T_world_object;
+    for (int axis = 0; axis < 3; ++axis) {
+      const Mat3 R = Eigen::AngleAxisd(M_PI, Vec3::Unit(axis)).toRotationMatrix();
+      if (std::any_of(m.symmetries.begin(), m.symmetries.end(), [&](const Mat3& S) { return (S - R).norm() < 1e-6; })) continue;
+      Pose turn = Pose::Identity();
+      turn.linear() = R;
+      turn.translation() = c - R * c;
+      const Pose T = I.refine(frame, mask, k, found * turn, origin);
+      const ModelPose r = I.verify(frame, mask, k, T);
+      ++verified;
+      if (r.score > best.score || (r.score == best.score && r.agree > best.agree)) best = r;
+      const int tell = r.agree + r.contradict - r.uncovered;
+      if (tell > 0 && r.agree >= I.o.min_fit * tell && r.agree >= I.o.min_seen * r.drawn && r.agree > part.agree) part = r;
+    }
+  }
   best.ok = best.model >= 0 && best.score >= I.o.min_score;
   if (!best.ok && part.model >= 0) {  // more than one object in the segment: the one explained best
     best = part;

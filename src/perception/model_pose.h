@@ -95,6 +95,7 @@ struct ModelPoseOptions {
   // Verification: drawn and seen depth agree within agree + depth_sigma_k z^2 * 3.
   double agree = 0.004;           ///< [m]
   double depth_sigma_k = 0.0015;  ///< the sensor's depth noise: sigma = k z^2 [1/m]
+  bool turns = true;              ///< the best pose turned half a turn about each of its model's box axes, refined and verified too
   double min_score = 0.6;         ///< the best pose's score must reach this, else no pose ...
   // ... unless the segment holds more than one object (touching objects the segmentation merged):
   // a pose explaining a part of it is taken when, leaving the segment's pixels it does not cover
