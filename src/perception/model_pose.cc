@@ -641,30 +641,38 @@ ViewPoses ModelPoseEstimator::estimateView(const Frame& frame, const std::vector
   auto leftOver = [&](Segment s) {
     if (static_cast<int>(s.pixels.size()) >= so.min_obstacle_pixels && s.top >= so.min_obstacle_height) out.small.push_back(std::move(s));
   };
-  // The connected parts of `pixels` (ascending; pixels within `margin` of each other join).
+  // The connected parts of `pixels` (ascending; pixels within `margin` of each other join): a
+  // flood fill over their bounding box.
   auto parts = [&](const std::vector<int>& pixels) {
     std::vector<std::vector<int>> result;
-    std::unordered_map<int, int> part;  // pixel -> its part (-1: not yet reached)
-    for (int p : pixels) part[p] = -1;
+    if (pixels.empty()) return result;
+    int u0 = cam.width, v0 = cam.height, u1 = -1, v1 = -1;
+    for (int p : pixels) {
+      const int u = p % cam.width, v = p / cam.width;
+      u0 = std::min(u0, u), v0 = std::min(v0, v), u1 = std::max(u1, u), v1 = std::max(v1, v);
+    }
+    const int bw = u1 - u0 + 1;
+    std::vector<int> part(static_cast<size_t>(bw) * static_cast<size_t>(v1 - v0 + 1), -2);  // -2: not one of them, -1: not reached
+    auto at = [&](int u, int v) -> int& { return part[static_cast<size_t>(v - v0) * bw + static_cast<size_t>(u - u0)]; };
+    for (int p : pixels) at(p % cam.width, p / cam.width) = -1;
     for (int seed : pixels) {
-      if (part[seed] >= 0) continue;
+      int& first = at(seed % cam.width, seed / cam.width);
+      if (first >= 0) continue;
       const int id = static_cast<int>(result.size());
       result.emplace_back();
       std::vector<int> stack{seed};
-      part[seed] = id;
+      first = id;
       while (!stack.empty()) {
         const int p = stack.back();
         stack.pop_back();
         result.back().push_back(p);
         const int u = p % cam.width, v = p / cam.width;
-        for (int dv = -margin; dv <= margin; ++dv)
-          for (int du = -margin; du <= margin; ++du) {
-            const int uu = u + du, vv = v + dv;
-            if (uu < 0 || vv < 0 || uu >= cam.width || vv >= cam.height) continue;
-            const auto it = part.find(vv * cam.width + uu);
-            if (it == part.end() || it->second >= 0) continue;
-            it->second = id;
-            stack.push_back(it->first);
+        for (int vv = std::max(v0, v - margin); vv <= std::min(v1, v + margin); ++vv)
+          for (int uu = std::max(u0, u - margin); uu <= std::min(u1, u + margin); ++uu) {
+            int& q = at(uu, vv);
+            if (q != -1) continue;
+            q = id;
+            stack.push_back(vv * cam.width + uu);
           }
       }
       std::sort(result.back().begin(), result.back().end());

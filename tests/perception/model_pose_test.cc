@@ -251,7 +251,8 @@ Score scorePiles(int piles, int width, bool labels, bool verbose, const ModelPos
   return s;
 }
 
-// MM_PILES piles (default: 3, 1 sanitized) at MM_WIDTH (default 1280) x 3/4 of it.
+// MM_PILES piles (default: 3, 1 sanitized) at MM_WIDTH (default 1280) x 3/4 of it; MM_NO_TURNS
+// leaves out the winner's turns (ModelPoseOptions::turns).
 Score scoreFromEnvironment(bool labels) {
   const char* env = std::getenv("MM_PILES");
   const char* wide = std::getenv("MM_WIDTH");
