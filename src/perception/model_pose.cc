@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <stdexcept>
@@ -11,6 +12,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <opencv2/imgproc.hpp>
 
 #include "perception/segmentation.h"
 
@@ -222,6 +224,59 @@ std::vector<Oriented> surfacePoints(const ObjectModel& m, double step, double ed
   return pts;
 }
 
+// A rectangle on a plane: its centre, its long and short axes and the plane's normal (the
+// columns of R, a right-handed frame), and its half sides.
+struct PlaneRect {
+  Mat3 R;
+  Vec3 centre;
+  double half_long = 0, half_short = 0;
+};
+
+// The smallest rectangle round `points` on the plane through `on` with normal `n` (OpenCV's
+// minAreaRect over the points in a basis of the plane): a face's sides, or a segment's.
+PlaneRect rectOn(const std::vector<Vec3>& points, const Vec3& n, const Vec3& on) {
+  const Vec3 u = n.unitOrthogonal(), v = n.cross(u);
+  std::vector<cv::Point2f> flat;
+  flat.reserve(points.size());
+  for (const Vec3& p : points) flat.emplace_back(static_cast<float>(u.dot(p - on)), static_cast<float>(v.dot(p - on)));
+  const cv::RotatedRect r = cv::minAreaRect(flat);
+  const double a = r.angle * M_PI / 180;
+  Vec3 e1 = std::cos(a) * u + std::sin(a) * v;
+  double h1 = r.size.width / 2.0, h2 = r.size.height / 2.0;
+  if (h1 < h2) std::swap(h1, h2), e1 = n.cross(e1);
+  PlaneRect out;
+  out.R.col(0) = e1, out.R.col(1) = n.cross(e1), out.R.col(2) = n;
+  out.centre = on + r.center.x * u + r.center.y * v;
+  out.half_long = h1, out.half_short = h2;
+  return out;
+}
+
+// A model's plane faces: its triangles grouped by the plane they lie on (normals within a degree,
+// offsets within 0.1 mm), each group of at least `min_area` as its smallest rectangle.
+std::vector<PlaneRect> planeFaces(const ObjectModel& m, double min_area) {
+  struct Group {
+    Vec3 n;
+    double d = 0, area = 0;
+    std::vector<Vec3> corners;
+  };
+  std::vector<Group> groups;
+  for (const auto& f : m.faces) {
+    const Vec3 &a = m.vertices[f[0]], &b = m.vertices[f[1]], &c = m.vertices[f[2]];
+    const Vec3 cross = (b - a).cross(c - a);
+    if (cross.norm() < 1e-12) continue;
+    const Vec3 n = cross.normalized();
+    auto g = std::find_if(groups.begin(), groups.end(),
+                          [&](const Group& x) { return x.n.dot(n) > std::cos(M_PI / 180) && std::abs(x.d - n.dot(a)) < 1e-4; });
+    if (g == groups.end()) g = groups.insert(groups.end(), Group{n, n.dot(a), 0, {}});
+    g->area += cross.norm() / 2;
+    g->corners.insert(g->corners.end(), {a, b, c});
+  }
+  std::vector<PlaneRect> out;
+  for (const Group& g : groups)
+    if (g.area >= min_area) out.push_back(rectOn(g.corners, g.n, g.d * g.n));
+  return out;
+}
+
 // The rigid motion taking oriented point `r` to the origin with its normal along +x (Drost et al.'s
 // T_{m->g}).
 Pose toOrigin(const Oriented& r) {
@@ -247,15 +302,27 @@ class PointPairModel {
       : points_(std::move(points)), diameter_(diameter), distance_step_(distance_step * diameter), angle_steps_(angle_steps),
         bucket_cap_(bucket_cap) {
     if (angle_steps_ < 4 || angle_steps_ > 126) throw std::invalid_argument("ModelPoseOptions::angle_steps: expected 4 to 126 (6 bits a half turn)");
+    for (int k = 1; k * 2 <= angle_steps_; ++k) cos_edges_.push_back(std::cos(2 * M_PI * k / angle_steps_));
     for (size_t r = 0; r < points_.size(); ++r) {
       const Pose T = toOrigin(points_[r]);
       for (size_t i = 0; i < points_.size(); ++i) {
         if (i == r) continue;
         const uint64_t key = feature(points_[r], points_[i]);
         if (key == kNone) continue;
-        table_[key].push_back({static_cast<int>(r), alpha(T * points_[i].p)});
+        table_[key].push_back({static_cast<int>(r), static_cast<float>(alpha(T * points_[i].p))});
       }
     }
+    // A crowded bin (pairs on one face: a plane's pairs look alike) keeps evenly spaced entries,
+    // `bucket_cap` to 2 bucket_cap - 1 of them: its votes spread over the face's every shift and
+    // turn and locate little, and would cost the most.
+    if (bucket_cap_ > 0)
+      for (auto& [key, bucket] : table_) {
+        const size_t stride = std::max<size_t>(1, bucket.size() / static_cast<size_t>(bucket_cap_));
+        if (stride == 1) continue;
+        std::vector<Entry> kept;
+        for (size_t b = 0; b < bucket.size(); b += stride) kept.push_back(bucket[b]);
+        bucket = std::move(kept);
+      }
   }
 
   size_t size() const { return points_.size(); }
@@ -278,16 +345,10 @@ class PointPairModel {
         const auto it = key == kNone ? table_.end() : table_.find(key);
         if (it != table_.end()) {
           const double as = alpha(Ts * scene[i].p);
-          // A crowded bin (pairs on one face: a plane's pairs look alike) is read at evenly spaced
-          // entries, `bucket_cap` of them: its votes spread over the face's every shift and turn
-          // and locate little, and would cost the most.
-          const std::vector<Entry>& bucket = it->second;
-          const size_t stride = bucket_cap_ > 0 ? std::max<size_t>(1, bucket.size() / static_cast<size_t>(bucket_cap_)) : 1;
-          for (size_t b = 0; b < bucket.size(); b += stride) {
-            const Entry& e = bucket[b];
-            double a = e.alpha - as;
-            a -= 2 * M_PI * std::floor(a / (2 * M_PI));
-            const int bin = std::min(angle_steps_ - 1, static_cast<int>(a / (2 * M_PI) * angle_steps_));
+          for (const Entry& e : it->second) {
+            double a = e.alpha - as;  // in bins, within (-angle_steps, angle_steps)
+            if (a < 0) a += angle_steps_;
+            const int bin = std::min(angle_steps_ - 1, static_cast<int>(a));
             const size_t k = static_cast<size_t>(e.model) * angle_steps_ + bin;
             if (acc[k] == 0) touched.push_back(k);
             ++acc[k];
@@ -315,33 +376,30 @@ class PointPairModel {
   static constexpr uint64_t kNone = ~0ull;
   struct Entry {
     int model;
-    double alpha;
+    float alpha;  // in bins of the turn
   };
 
-  // The feature's four values in bins (continuous).
-  bool values(const Oriented& r, const Oriented& i, std::array<double, 4>& f) const {
-    const Vec3 d = i.p - r.p;
-    const double dist = d.norm();
-    if (dist < 1e-9) return false;
-    const Vec3 u = d / dist;
-    const double step = 2 * M_PI / angle_steps_;
-    f = {dist / distance_step_, std::acos(std::clamp(r.n.dot(u), -1.0, 1.0)) / step, std::acos(std::clamp(i.n.dot(u), -1.0, 1.0)) / step,
-         std::acos(std::clamp(r.n.dot(i.n), -1.0, 1.0)) / step};
-    return true;
+  // An angle's bin from its cosine (no acos: the bins' edges' cosines, descending).
+  long angleBin(double c) const {
+    return std::partition_point(cos_edges_.begin(), cos_edges_.end(), [c](double e) { return e >= c; }) - cos_edges_.begin();
   }
   static uint64_t key(const std::array<long, 4>& b) {
     return ((static_cast<uint64_t>(b[0]) * 64 + static_cast<uint64_t>(b[1])) * 64 + static_cast<uint64_t>(b[2])) * 64 + static_cast<uint64_t>(b[3]);
   }
   uint64_t feature(const Oriented& r, const Oriented& i) const {
-    std::array<double, 4> f;
-    if (!values(r, i, f)) return kNone;
-    return key({static_cast<long>(f[0]), static_cast<long>(f[1]), static_cast<long>(f[2]), static_cast<long>(f[3])});
+    const Vec3 d = i.p - r.p;
+    const double dist = d.norm();
+    if (dist < 1e-9) return kNone;
+    const Vec3 u = d / dist;
+    return key({static_cast<long>(dist / distance_step_), angleBin(r.n.dot(u)), angleBin(i.n.dot(u)), angleBin(r.n.dot(i.n))});
   }
-  static double alpha(const Vec3& p) { return std::atan2(-p.z(), p.y()); }
+  // The angle about +x from the half-plane y > 0, z = 0 to p, in bins of the turn.
+  double alpha(const Vec3& p) const { return std::atan2(-p.z(), p.y()) * angle_steps_ / (2 * M_PI); }
 
   std::vector<Oriented> points_;
   double diameter_, distance_step_;
   int angle_steps_, bucket_cap_;
+  std::vector<double> cos_edges_;  // cos(k 2 pi / angle_steps), k = 1 ... angle_steps / 2
   std::unordered_map<uint64_t, std::vector<Entry>> table_;
 };
 
@@ -378,6 +436,7 @@ struct ModelPoseEstimator::Impl {
   std::vector<std::shared_ptr<const ObjectModel>> models;
   std::vector<PointPairModel> ppf;
   std::vector<std::vector<Vec3>> normals;  // each model's faces' outward normals
+  std::vector<std::vector<PlaneRect>> planes;  // each model's plane faces
   ModelPoseOptions o;
 
   // The segment's points on a pixel grid about `spacing` apart, each with the normal of a plane
@@ -507,6 +566,7 @@ ModelPoseEstimator::ModelPoseEstimator(std::vector<std::shared_ptr<const ObjectM
       n.push_back(c.norm() > 0 ? Vec3(c.normalized()) : Vec3::UnitZ());
     }
     impl_->normals.push_back(std::move(n));
+    impl_->planes.push_back(planeFaces(*m, o.plane_min_area));
   }
 }
 
@@ -530,6 +590,14 @@ ModelPose ModelPoseEstimator::estimate(const Frame& frame, const Segment& segmen
   if (!segment.points.empty()) origin /= static_cast<double>(segment.points.size());
   int verified = 0;
   bool enough_points = false;
+  // A hypothesis of model k refined, verified, and kept if the best so far (or the best part).
+  auto try_pose = [&](int k, const Pose& hypothesis) {
+    const ModelPose r = I.verify(frame, mask, k, I.refine(frame, mask, k, hypothesis, origin));
+    ++verified;
+    if (r.score > best.score || (r.score == best.score && r.agree > best.agree)) best = r;
+    const int tell = r.agree + r.contradict - r.uncovered;
+    if (tell > 0 && r.agree >= I.o.min_fit * tell && r.agree >= I.o.min_seen * r.drawn && r.agree > part.agree) part = r;
+  };
   for (size_t k = 0; k < I.models.size(); ++k) {
     const ObjectModel& m = *I.models[k];
     const double spacing = I.o.scene_sampling * m.diameter;
@@ -555,14 +623,54 @@ ModelPose ModelPoseEstimator::estimate(const Frame& frame, const Segment& segmen
       if (!joined) clusters.push_back(v);
     }
     std::stable_sort(clusters.begin(), clusters.end(), [](const auto& a, const auto& b) { return a.votes > b.votes; });
-    for (size_t h = 0; h < clusters.size() && h < static_cast<size_t>(I.o.hypotheses); ++h) {
-      Pose T = clusters[h].T_scene_model;
-      T = I.refine(frame, mask, static_cast<int>(k), T, origin);
-      const ModelPose r = I.verify(frame, mask, static_cast<int>(k), T);
-      ++verified;
-      if (r.score > best.score || (r.score == best.score && r.agree > best.agree)) best = r;
-      const int tell = r.agree + r.contradict - r.uncovered;
-      if (tell > 0 && r.agree >= I.o.min_fit * tell && r.agree >= I.o.min_seen * r.drawn && r.agree > part.agree) part = r;
+    for (size_t h = 0; h < clusters.size() && h < static_cast<size_t>(I.o.hypotheses); ++h) try_pose(static_cast<int>(k), clusters[h].T_scene_model);
+  }
+  // The segment's largest plane (a face seen whole: a block's top, the half of a step block its
+  // concave step splits off): a plane's point pairs locate nothing on a face (each of its shifts
+  // and turns votes alike), so each model's plane faces of about its size are laid on it, their
+  // smallest rectangles on its, in each quarter turn that fits.
+  if (I.o.plane_faces) {
+    const std::vector<Oriented> cloud = thin(I.sceneCloud(frame, mask, 0.5 * I.o.plane_spacing, I.o.normal_radius), I.o.plane_spacing);
+    // The plane through each point along its normal, by how many points it holds (within
+    // plane_tolerance, their normals within 15 degrees): the most held, refitted to them.
+    size_t most = 0;
+    Vec3 n = Vec3::UnitZ(), on = Vec3::Zero();
+    for (const Oriented& c : cloud) {
+      size_t held = 0;
+      for (const Oriented& q : cloud) held += std::abs(c.n.dot(q.p - c.p)) <= I.o.plane_tolerance && c.n.dot(q.n) > std::cos(M_PI / 12);
+      if (held > most) most = held, n = c.n, on = c.p;
+    }
+    std::vector<Vec3> flat;
+    if (most >= 10 && most >= I.o.plane_share * static_cast<double>(cloud.size())) {
+      Vec3 mean = Vec3::Zero();
+      Mat3 scatter = Mat3::Zero();
+      int held = 0;
+      for (const Oriented& q : cloud)
+        if (std::abs(n.dot(q.p - on)) <= I.o.plane_tolerance && n.dot(q.n) > std::cos(M_PI / 12)) mean += q.p, scatter += q.p * q.p.transpose(), ++held;
+      mean /= held;
+      const Eigen::SelfAdjointEigenSolver<Mat3> eig(scatter / held - mean * mean.transpose());
+      const Vec3 fitted = eig.eigenvectors().col(0);
+      n = fitted.dot(n) < 0 ? Vec3(-fitted) : fitted, on = mean;
+      for (const Vec3& p : segment.points)
+        if (std::abs(n.dot(p - on)) <= I.o.plane_tolerance) flat.push_back(p);
+    }
+    if (flat.size() >= 10) {
+      const PlaneRect seen = rectOn(flat, n, on);
+      auto fits = [&](double seen_half, double face_half) { return std::abs(seen_half - face_half) <= I.o.plane_fit; };
+      for (size_t k = 0; k < I.models.size(); ++k)
+        for (const PlaneRect& f : I.planes[k])
+          for (int q = 0; q < 4; ++q) {
+            const bool turned = q % 2 == 1;  // the face's long side along the segment's short one
+            if (!fits(turned ? seen.half_short : seen.half_long, f.half_long) || !fits(turned ? seen.half_long : seen.half_short, f.half_short))
+              continue;
+            const Vec3 a = (q < 2 ? 1.0 : -1.0) * seen.R.col(turned ? 1 : 0);
+            Mat3 R;
+            R.col(0) = a, R.col(1) = n.cross(a), R.col(2) = n;
+            Pose T = Pose::Identity();
+            T.linear() = R * f.R.transpose();
+            T.translation() = seen.centre - T.linear() * f.centre;
+            try_pose(static_cast<int>(k), T);
+          }
     }
   }
   // The best pose turned half a turn about each axis of its model's bounding box (through its
@@ -582,12 +690,7 @@ ModelPose ModelPoseEstimator::estimate(const Frame& frame, const Segment& segmen
       Pose turn = Pose::Identity();
       turn.linear() = R;
       turn.translation() = c - R * c;
-      const Pose T = I.refine(frame, mask, k, found * turn, origin);
-      const ModelPose r = I.verify(frame, mask, k, T);
-      ++verified;
-      if (r.score > best.score || (r.score == best.score && r.agree > best.agree)) best = r;
-      const int tell = r.agree + r.contradict - r.uncovered;
-      if (tell > 0 && r.agree >= I.o.min_fit * tell && r.agree >= I.o.min_seen * r.drawn && r.agree > part.agree) part = r;
+      try_pose(k, found * turn);
     }
   }
   best.ok = best.model >= 0 && best.score >= I.o.min_score;

@@ -3,7 +3,9 @@
 //               Efficient and Robust 3D Object Recognition", CVPR 2010) of each model voted over
 //               one segment's points, the votes clustered up to the model's symmetries; our own
 //               (OpenCV contrib's surface_matching trains a 2,400-point model in 48 s here, and
-//               clusters with no symmetries: docs/design/pose-estimation.md);
+//               clusters with no symmetries: docs/design/pose-estimation.md); and each model's
+//               plane faces laid on the segment's largest plane, their smallest rectangles on
+//               its (a face seen whole: its point pairs all look alike and locate nothing);
 //   refinement  each hypothesis aligned to the segment's points by point-to-plane ICP with
 //               projective association (the model drawn at the pose: each pixel's observed point
 //               paired with the model's surface at that pixel; Rusinkiewicz and Levoy, "Efficient
@@ -87,8 +89,15 @@ struct ModelPoseOptions {
   double scene_reference = 0.2;   ///< ... and this share of them reference points
   double normal_radius = 0.006;   ///< [m] a point's normal: the plane fitted to its neighbours this near (or 1.5 spacings, if more)
   double edge_clearance = 0.006;  ///< [m] the model's points this near a sharp edge left out (the camera's normals bend round it)
-  int bucket_cap = 64;            ///< a pair's bin of n entries is read every floor(n / bucket_cap)-th: cap to 2 cap - 1 entries (0: all)
+  int bucket_cap = 64;            ///< a pair's bin of n entries keeps every floor(n / bucket_cap)-th: cap to 2 cap - 1 entries (0: all)
   int hypotheses = 12;            ///< the best-voted poses of each model refined and verified
+  // Hypotheses from faces: each model's plane faces laid on the segment's largest plane (a face's point pairs locate nothing).
+  bool plane_faces = true;
+  double plane_spacing = 0.003;   ///< [m] the segment's points thinned to this spacing to find its largest plane ...
+  double plane_tolerance = 0.003; ///< [m] ... the points this near it (their normals within 15 degrees of its) ...
+  double plane_share = 0.3;       ///< ... at least this share of them
+  double plane_min_area = 1e-4;   ///< [m^2] a model's faces this large (their triangles grouped by plane)
+  double plane_fit = 0.005;       ///< [m] a face fits when its smallest rectangle's half sides are within this of the segment's
   // Refinement.
   int icp_iterations = 12;
   double icp_reject = 0.01;       ///< [m] pairs further apart than this are left out
