@@ -22,14 +22,17 @@ struct TreeRunOptions {
 struct TreeRunResult {
   NodeStatus status = NodeStatus::kIdle;  ///< SUCCESS or FAILURE (RUNNING when it timed out)
   bool timeout = false;
+  bool unstable = false;                   ///< stopped where the simulator flagged a bad state (its world is reset)
   long ticks = 0;                          ///< root ticks, re-ticks after a wake-up included
   double tick_wall_seconds = 0;            ///< wall time inside the ticks (the actions' planning included)
   double leaf_wall_seconds = 0;            ///< of it, inside the leaf nodes (actions and conditions)
   std::string error;                       ///< a runtime error in the tree (a script, a port), if any
 };
 
-/// Runs `tree` to its end on `ctx` (the tree's clock becomes the trial's simulated time). Records
-/// a TIMEOUT, a runtime error or a FAILURE no action explained as the trial's failure.
+/// Runs `tree` to its end on `ctx` (the tree's clock becomes the trial's simulated time), or until
+/// an action records a SIM_UNSTABLE failure (MuJoCo has reset its state: nothing after it would be
+/// a trial, and that failure stays the trial's). Records a TIMEOUT, a runtime error or a FAILURE
+/// no action explained as the trial's failure.
 TreeRunResult runTree(Tree& tree, TrialContext& ctx, const TreeRunOptions& options);
 
 }  // namespace mm::bt

@@ -282,6 +282,23 @@ TEST(OwnTrees, AForeverRepeatEndsAsTimeoutAtTheBudget) {
   EXPECT_NEAR(r.out.sim_time, 2.0, 0.01);
 }
 
+// MuJoCo resets its state where it flags a bad one (a NaN here, an object's position): the trial
+// ends at the first SIM_UNSTABLE failure, which stays its failure, though the tree has attempts
+// left (the recovering tree's four).
+TEST(OwnTrees, ASimulatorInstabilityEndsTheTrialWithItsFailure) {
+  const Result r = runTree("recovering_pick_place.xml", withCubes({}, 2), 0, nullptr, [](SimWorld& w, const std::vector<int>& active) {
+    Pose T = w.object(active[1]).T_world_object;
+    T.translation().z() = std::nan("");
+    w.setObjectPose(active[1], T);
+  });
+  EXPECT_FALSE(r.out.success);
+  EXPECT_TRUE(r.out.sim_unstable);
+  EXPECT_EQ(r.out.failure_kind, FailureKind::kSimUnstable) << describe(r.out);
+  long unstable = 0;
+  for (const auto& f : r.out.failures) unstable += f.failure.kind == FailureKind::kSimUnstable;
+  EXPECT_EQ(unstable, 1) << describe(r.out);
+}
+
 TEST(OwnTrees, SleepCountsSimulatedTime) {
   const std::string pick_place = R"(<DetectObject object_pose="{p}"/><PlanAndExecutePick object_pose="{p}"/>
         <PlanAndExecutePlace place_pose="{place_target}"/><MoveToHome/>)";
