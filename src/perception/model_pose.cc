@@ -437,6 +437,7 @@ struct ModelPoseEstimator::Impl {
   std::vector<PointPairModel> ppf;
   std::vector<std::vector<Vec3>> normals;  // each model's faces' outward normals
   std::vector<std::vector<PlaneRect>> planes;  // each model's plane faces
+  std::vector<Vec3> box_centres;                // each model's vertices' bounding box's centre (its half turns')
   ModelPoseOptions o;
 
   // The segment's points on a pixel grid about `spacing` apart, each with the normal of a plane
@@ -567,6 +568,9 @@ ModelPoseEstimator::ModelPoseEstimator(std::vector<std::shared_ptr<const ObjectM
     }
     impl_->normals.push_back(std::move(n));
     impl_->planes.push_back(planeFaces(*m, o.plane_min_area));
+    Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
+    for (const Vec3& v : m->vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+    impl_->box_centres.push_back((lo + hi) / 2);
   }
 }
 
@@ -680,9 +684,7 @@ ModelPose ModelPoseEstimator::estimate(const Frame& frame, const Segment& segmen
   if (I.o.turns && best.model >= 0) {
     const int k = best.model;
     const ObjectModel& m = *I.models[static_cast<size_t>(k)];
-    Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
-    for (const Vec3& v : m.vertices) lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
-    const Vec3 c = (lo + hi) / 2;
+    const Vec3& c = I.box_centres[static_cast<size_t>(k)];
     const Pose found = best.T_world_object;
     for (int axis = 0; axis < 3; ++axis) {
       const Mat3 R = Eigen::AngleAxisd(M_PI, Vec3::Unit(axis)).toRotationMatrix();
