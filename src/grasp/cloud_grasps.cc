@@ -1,6 +1,7 @@
 #include "grasp/cloud_grasps.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -392,8 +393,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
         R << x, y, z;
         // The tested points in the hand's frame, by blocks: a block whose bounding box (or ball)
         // misses a box [-hx, hx] x [-hy, hy] x [zlo, zhi] of the hand's frame holds none of its
-        // points and is skipped whole. Both passes below move a point by the same expression, so
-        // it has the same coordinates in each.
+        // points and is skipped whole.
         auto blockMeets = [&](const Block& b, double hx, double hy, double zlo, double zhi) {
           // The block's reach along each axis: its bounding box's (its ball's, if less).
           const double bx = x.dot(b.centre), by = y.dot(b.centre), bz = z.dot(b.centre);
@@ -401,15 +401,20 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
                        sz = std::min(b.radius, z.cwiseAbs().dot(b.half)) + 1e-9;
           return std::abs(bx) <= hx + sx && std::abs(by) <= hy + sy && bz >= zlo - sz && bz <= zhi + sz;
         };
+        // Tested point k in the hand's frame about the seed (both passes below read it so: the same
+        // coordinates in each).
+        auto inHand = [&](size_t k) {
+          return std::array<double, 3>{x.x() * (tx[k] - sx0) + x.y() * (ty[k] - sy0) + x.z() * (tz[k] - sz0),
+                                       y.x() * (tx[k] - sx0) + y.y() * (ty[k] - sy0) + y.z() * (tz[k] - sz0),
+                                       z.x() * (tx[k] - sx0) + z.y() * (ty[k] - sy0) + z.z() * (tz[k] - sz0)};
+        };
         // The points that may lie between the pads at some depth (the contacts; not the floor's),
         // read first: most hands end on them alone (too wide, on a wall, too low).
         unsorted_pads.clear();
         for (const Block& b : blocks) {
           if (!blockMeets(b, o.pad_half_width, half_span, pads_z_lo, pads_z_hi)) continue;
           for (size_t k = b.first; k < b.last; ++k) {
-            const double px = x.x() * (tx[k] - sx0) + x.y() * (ty[k] - sy0) + x.z() * (tz[k] - sz0);
-            const double py = y.x() * (tx[k] - sx0) + y.y() * (ty[k] - sy0) + y.z() * (tz[k] - sz0);
-            const double pz = z.x() * (tx[k] - sx0) + z.y() * (ty[k] - sy0) + z.z() * (tz[k] - sz0);
+            const auto [px, py, pz] = inHand(k);
             if ((std::abs(px) <= o.pad_half_width) & (std::abs(py) <= half_span) & (pz >= pads_z_lo) & (pz <= pads_z_hi) & !t_floor[k])
               unsorted_pads.push_back({Vec3(px, py, pz), t_cell[k]});
           }
@@ -434,9 +439,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
             for (const Block& b : blocks) {
               if (!blockMeets(b, fingers_x, box_y, fingers_z_lo, fingers_z_hi) && !blockMeets(b, body_x, box_y, body_z_lo, body_z_hi)) continue;
               for (size_t k = b.first; k < b.last; ++k) {
-                const double px = x.x() * (tx[k] - sx0) + x.y() * (ty[k] - sy0) + x.z() * (tz[k] - sz0);
-                const double py = y.x() * (tx[k] - sx0) + y.y() * (ty[k] - sy0) + y.z() * (tz[k] - sz0);
-                const double pz = z.x() * (tx[k] - sx0) + z.y() * (ty[k] - sy0) + z.z() * (tz[k] - sz0);
+                const auto [px, py, pz] = inHand(k);
                 const double across = std::abs(px);
                 const bool fingers = (across <= fingers_x) & (pz >= fingers_z_lo) & (pz <= fingers_z_hi);
                 const bool body = (across <= body_x) & (pz >= body_z_lo) & (pz <= body_z_hi);
