@@ -169,6 +169,33 @@ void SimWorld::Impl::putToSleep(size_t i) {
   asleep[i] = 1;
 }
 
+void SimWorld::Impl::saveGood() {
+  auto keep = [](std::vector<mjtNum>& to, const mjtNum* from, int n) { to.assign(from, from + n); };
+  keep(good.qpos, d->qpos, m->nq);
+  keep(good.qvel, d->qvel, m->nv);
+  keep(good.act, d->act, m->na);
+  keep(good.ctrl, d->ctrl, m->nu);
+  keep(good.mocap_pos, d->mocap_pos, 3 * m->nmocap);
+  keep(good.mocap_quat, d->mocap_quat, 4 * m->nmocap);
+  keep(good.xfrc_applied, d->xfrc_applied, 6 * m->nbody);
+  keep(good.qacc_warmstart, d->qacc_warmstart, m->nv);
+  good.time = d->time;
+}
+
+void SimWorld::Impl::restoreGood() {
+  auto put = [](const std::vector<mjtNum>& from, mjtNum* to) { std::copy(from.begin(), from.end(), to); };
+  put(good.qpos, d->qpos);
+  put(good.qvel, d->qvel);
+  put(good.act, d->act);
+  put(good.ctrl, d->ctrl);
+  put(good.mocap_pos, d->mocap_pos);
+  put(good.mocap_quat, d->mocap_quat);
+  put(good.xfrc_applied, d->xfrc_applied);
+  put(good.qacc_warmstart, d->qacc_warmstart);
+  d->time = good.time;
+  mj_forward(m, d);
+}
+
 void SimWorld::Impl::physicsStep() {
   setMidphase(midphase);
   updateSleep();

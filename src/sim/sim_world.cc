@@ -346,6 +346,11 @@ double SimWorld::surfaceBelow(const Vec3& p, int exclude) const {
 
 void SimWorld::stepServo(const VecX& q, const VecX& qd, const VecX& qdd, double finger_target, double finger_force) {
   Impl& I = *impl_;
+  if (I.unstable) {  // back where it was good (below): time goes on, nothing moves
+    stepKinematic();
+    return;
+  }
+  I.saveGood();
   mjModel* m = I.m;
   mjData* d = I.d;
   setMidphase(I.midphase);
@@ -408,9 +413,12 @@ void SimWorld::stepServo(const VecX& q, const VecX& qd, const VecX& qdd, double 
     } catch (const std::runtime_error& e) {
       I.unstable = true;
       I.instability = e.what();
+    }
+    if (!I.unstable) I.monitor();  // contacts found by this step's collision pass (state at the step's start)
+    if (I.unstable) {
+      I.restoreGood();
       return;
     }
-    I.monitor();  // contacts found by this step's collision pass (state at the step's start)
   }
 }
 

@@ -59,6 +59,15 @@ struct SimWorld::Impl {
   std::vector<std::string> collision_log;
   bool unstable = false;
   std::string instability;
+  // The state at the start of the last control period (stepServo): where MuJoCo flags a bad state
+  // it resets its data (the objects parked, time 0), and the world goes back to this instead and
+  // stays there (kinematic steps only), so what the trial did before is still what it scores.
+  struct GoodState {
+    std::vector<mjtNum> qpos, qvel, act, ctrl, mocap_pos, mocap_quat, xfrc_applied, qacc_warmstart;
+    mjtNum time = 0;
+  } good;
+  void saveGood();
+  void restoreGood();
   std::map<int, Pose> camera_offsets;  ///< a knocked camera's pose from its mount (setCameraOffset), by camera id
   // scratch
   std::vector<mjtNum> scratch_a, scratch_b, scratch_jac;
