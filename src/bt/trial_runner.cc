@@ -39,7 +39,7 @@ TreeRunResult runTree(Tree& tree, TrialContext& ctx, const TreeRunOptions& o) {
   };
   try {
     tick();
-    while (r.status == NodeStatus::kRunning && !(r.unstable = ctx.out.sim_unstable)) {
+    while (r.status == NodeStatus::kRunning && !ctx.out.sim_unstable) {
       const double next_tick = ctx.simTime() + o.tick_period;
       bool wake = false;
       const bool wakes_allowed = ticks_now < kMaxTicksAtOneInstant;
@@ -61,10 +61,10 @@ TreeRunResult runTree(Tree& tree, TrialContext& ctx, const TreeRunOptions& o) {
       if (r.timeout) break;
       tick();
     }
-    r.unstable = ctx.out.sim_unstable;
   } catch (const std::exception& e) {
     r.error = e.what();
   }
+  r.unstable = ctx.out.sim_unstable;
   const bool running = tree.root()->status() == NodeStatus::kRunning || r.timeout || r.unstable || !r.error.empty();
   if (running) {
     try {
