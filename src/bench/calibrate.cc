@@ -7,8 +7,10 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iomanip>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 #include "campaign/trial.h"
@@ -38,6 +40,29 @@ std::string calibrationScene(const Experiment& e, const CharucoBoardSpec& board,
   tinyxml2::XMLElement* root = doc.FirstChildElement("mujoco");
   tinyxml2::XMLElement* world = root ? root->FirstChildElement("worldbody") : nullptr;
   if (!world) throw InputError(e.scene_path, "no <worldbody>");
+  // Written elsewhere, the scene names its files absolutely: its includes (URDF cell parts, MJCF),
+  // its asset folders, and each asset file no folder of the compiler's applies to.
+  const fs::path scene_dir = fs::absolute(fs::path(e.scene_path).parent_path());
+  auto absolute = [&](tinyxml2::XMLElement* x, const char* attribute) {
+    const char* f = x->Attribute(attribute);
+    if (f && fs::path(f).is_relative()) x->SetAttribute(attribute, (scene_dir / f).lexically_normal().string().c_str());
+  };
+  std::set<std::string> has_dir;
+  for (tinyxml2::XMLElement* c = root->FirstChildElement("compiler"); c; c = c->NextSiblingElement("compiler"))
+    for (const char* dir : {"meshdir", "texturedir", "assetdir"})
+      if (c->Attribute(dir)) {
+        has_dir.insert(dir);
+        absolute(c, dir);
+      }
+  std::function<void(tinyxml2::XMLElement*)> files = [&](tinyxml2::XMLElement* x) {
+    for (tinyxml2::XMLElement* c = x->FirstChildElement(); c; c = c->NextSiblingElement()) {
+      const std::string tag = c->Name();
+      const bool in_dir = tag != "include" && (has_dir.count("assetdir") || has_dir.count(tag == "texture" ? "texturedir" : "meshdir"));
+      if (!in_dir) absolute(c, "file");
+      files(c);
+    }
+  };
+  files(root);
   tinyxml2::XMLElement* asset = root->FirstChildElement("asset");
   if (!asset) asset = root->InsertNewChildElement("asset");
   tinyxml2::XMLElement* tex = asset->InsertNewChildElement("texture");

@@ -28,7 +28,7 @@ void Experiment::declare(ConfigArchive& a) {
   a.choice("hardware", hardware, hardwareNames(), "mujoco: physics; mock: joints follow commands exactly");
   a.path("robot", robot_path, "the arm: its YAML, a URDF (.urdf) or an MJCF file (.xml), each with its companion <file>.yaml when there is one. A path in a file is relative to the file; --set, to the working directory; the default, to the project root");
   a.path("gripper", gripper_path, "gripper YAML mounted on the arm's flange; default: the arm's own (its YAML's gripper:); paths as for robot");
-  a.path("scene", scene_path, "scene MJCF, the world only: the harness mounts the robot at its robot_mount site; paths as for robot");
+  a.path("scene", scene_path, "scene MJCF, the world only (its static parts may be URDF files it <include>s): the harness mounts the robot at its robot_mount site; paths as for robot");
   a.path("tree", tree_path, "behavior tree (BT.CPP v4 XML) run for each trial; paths as for robot. The default is the source's MiniManip tree");
   a.value("jobs", jobs, {0, 64}, "", "worker processes running trials in parallel, 0: one per core (outcomes do not depend on it)");
   a.value("watchdog", watchdog, {1, 1e6}, "s",

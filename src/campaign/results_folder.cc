@@ -17,6 +17,7 @@
 #include "core/folder_lock.h"
 #include "planning/planner.h"
 #include "sim/mjcf_robot.h"
+#include "sim/scene_compose.h"
 #include "sim/scene_sampler.h"
 #include "sim/sim_world.h"
 
@@ -106,6 +107,9 @@ json fingerprintOf(const Experiment& e) {
   f["robot"] = "contents " + fileDigest(e.robot_path) + (robot.sidecar.empty() ? "" : " " + fileDigest(robot.sidecar));
   f["gripper"] = "contents " + fileDigest(robot.gripper.file);
   f["scene"] = "contents " + fileDigest(e.scene_path);
+  for (const std::string& file : sceneSources(e.scene_path))  // its includes and URDF parts, named from its folder
+    f["scene"] = f["scene"].get<std::string>() + " " + fs::path(file).lexically_relative(fs::path(e.scene_path).parent_path()).string() + ":" +
+                 fileDigest(file);
   f["tree"] = "contents " + fileDigest(e.tree_path);
   {  // the catalogue and the mesh files its kinds read: a changed mesh is another campaign
     std::string digest = "contents " + fileDigest(e.spawn.catalogue);

@@ -58,7 +58,7 @@ UrdfObject loadUrdfObject(const std::string& path) {
   std::vector<urdf::LinkSharedPtr> links;
   model->getLinks(links);
   if (links.size() != 1)
-    throw InputError(path, "an object's URDF has exactly one link (a rigid object), this one has " + std::to_string(links.size()));
+    throw InputError(path, "an object's or cell part's URDF has exactly one link (one rigid body), this one has " + std::to_string(links.size()));
   const urdf::Link& l = *links.front();
   UrdfObject o;
   o.name = l.name;
@@ -78,21 +78,29 @@ UrdfObject loadUrdfObject(const std::string& path) {
     const Pose T = toPose(c->origin);
     std::vector<std::vector<Vec3>> pieces;
     std::string what;
+    UrdfObject::Primitive primitive;
+    primitive.T = T;
     switch (c->geometry->type) {
       case urdf::Geometry::BOX: {
         const auto& b = static_cast<const urdf::Box&>(*c->geometry);
         pieces.push_back(boxPoints(Vec3(b.dim.x, b.dim.y, b.dim.z) / 2));
+        primitive.kind = UrdfObject::Primitive::Kind::kBox;
+        primitive.size = Vec3(b.dim.x, b.dim.y, b.dim.z) / 2;
         what = "a box";
         break;
       }
       case urdf::Geometry::CYLINDER: {
         const auto& cy = static_cast<const urdf::Cylinder&>(*c->geometry);
         pieces.push_back(cylinderPoints(cy.radius, cy.length));
+        primitive.kind = UrdfObject::Primitive::Kind::kCylinder;
+        primitive.size = Vec3(cy.radius, cy.length / 2, 0);
         what = "a cylinder";
         break;
       }
       case urdf::Geometry::SPHERE:
         pieces.push_back(spherePoints(static_cast<const urdf::Sphere&>(*c->geometry).radius));
+        primitive.kind = UrdfObject::Primitive::Kind::kSphere;
+        primitive.size = Vec3(static_cast<const urdf::Sphere&>(*c->geometry).radius, 0, 0);
         what = "a sphere";
         break;
       case urdf::Geometry::MESH: {
@@ -108,9 +116,10 @@ UrdfObject loadUrdfObject(const std::string& path) {
       for (Vec3& v : p) v = T * v;
       o.collision.push_back(std::move(p));
       o.collision_what.push_back(where + ", collision " + what);
+      o.collision_primitive.push_back(primitive);
     }
   }
-  if (o.collision.empty()) throw InputError(where, "an object needs at least one <collision> (a mesh, box, cylinder or sphere)");
+  if (o.collision.empty()) throw InputError(where, "an object or cell part needs at least one <collision> (a mesh, box, cylinder or sphere)");
   for (const auto& v : l.visual_array) {
     if (!v || !v->geometry || v->geometry->type != urdf::Geometry::MESH) continue;
     const Pose T = toPose(v->origin);

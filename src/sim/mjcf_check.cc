@@ -2,6 +2,8 @@
 
 #include <tinyxml2.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -75,7 +77,10 @@ void checkElement(const tinyxml2::XMLElement* e, const std::string& file, int de
     const char* f = e->Attribute("file");
     if (!f) throw InputError(where, "<include> needs a file attribute");
     const auto inc = std::filesystem::path(file).parent_path() / f;
-    checkFile(inc.string(), depth + 1);
+    // A URDF file is a static cell part: the scene's composition reads and checks it.
+    std::string ext = inc.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (ext != ".urdf") checkFile(inc.string(), depth + 1);
   }
   for (const auto* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) checkElement(c, file, depth);
 }

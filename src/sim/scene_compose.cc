@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <algorithm>
+#include <cctype>
 #include <cstring>
 #include <filesystem>
 #include <functional>
@@ -15,6 +16,9 @@
 #include "core/error.h"
 #include "core/pose.h"
 #include "robot/description_writer.h"
+#include "robot/solid_mesh.h"
+#include "robot/urdf_object.h"
+#include "sim/object_catalogue.h"
 
 namespace mm {
 namespace {
@@ -47,8 +51,156 @@ void checkNoRobot(const XMLElement* root, const std::string& file, const std::se
                                         "' belongs to the robot: a scene holds the world only (the harness mounts the robot)");
 }
 
+std::string vec3Text(const Vec3& v) {
+  char buf[100];
+  std::snprintf(buf, sizeof buf, "%.12g %.12g %.12g", v.x(), v.y(), v.z());
+  return buf;
+}
+
+// A mesh's vertices for its <mesh vertex=".."> (9 digits: micrometres at a kilometre).
+std::string verticesText(const std::vector<Vec3>& points) {
+  std::string out;
+  char v[100];
+  for (const Vec3& p : points) {
+    std::snprintf(v, sizeof v, "%.9g %.9g %.9g ", p.x(), p.y(), p.z());
+    out += v;
+  }
+  return out;
+}
+
+std::string facesText(const std::vector<std::array<int, 3>>& faces) {
+  std::string out;
+  for (const auto& f : faces) out += std::to_string(f[0]) + " " + std::to_string(f[1]) + " " + std::to_string(f[2]) + " ";
+  return out;
+}
+
+bool isUrdf(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext == ".urdf";
+}
+
+// A convex hull that is a box (six faces in three pairs of opposite, mutually orthogonal normals):
+// its pose (the axes right-handed) and half sizes. False for any other hull.
+bool hullBox(const ConvexHull& hull, Pose& T, Vec3& half) {
+  std::vector<Vec3> normals;
+  for (const auto& f : hull.faces) {
+    const Vec3 a = hull.vertices[static_cast<size_t>(f[0])], b = hull.vertices[static_cast<size_t>(f[1])], c = hull.vertices[static_cast<size_t>(f[2])];
+    const Vec3 n = (b - a).cross(c - a);
+    if (n.norm() < 1e-15) continue;
+    if (std::none_of(normals.begin(), normals.end(), [&](const Vec3& m) { return m.dot(n.normalized()) > 1 - 1e-9; }))
+      normals.push_back(n.normalized());
+  }
+  if (normals.size() != 6) return false;
+  std::vector<Vec3> axes;
+  for (const Vec3& n : normals) {
+    if (std::none_of(normals.begin(), normals.end(), [&](const Vec3& m) { return m.dot(n) < -1 + 1e-9; })) return false;
+    if (std::none_of(axes.begin(), axes.end(), [&](const Vec3& a) { return std::abs(a.dot(n)) > 1 - 1e-9; })) axes.push_back(n);
+  }
+  if (axes.size() != 3 || std::abs(axes[0].dot(axes[1])) > 1e-9 || std::abs(axes[0].dot(axes[2])) > 1e-9 || std::abs(axes[1].dot(axes[2])) > 1e-9)
+    return false;
+  Mat3 R;
+  R << axes[0], axes[1], axes[0].cross(axes[1]);
+  Vec3 lo = Vec3::Constant(INFINITY), hi = -lo;
+  for (const Vec3& v : hull.vertices) lo = lo.cwiseMin(R.transpose() * v), hi = hi.cwiseMax(R.transpose() * v);
+  half = (hi - lo) / 2;
+  T = makePose(R * (hi + lo) / 2, R);
+  return true;
+}
+
+// A static cell part from a URDF file (a bin, a tray, a table, as PyBullet-era sets ship them):
+// `include` (<include file="part.urdf"/> in <worldbody> or in a body without joints) becomes the
+// link's geoms there, in the enclosing body's frame. Each collision element is a geom: a box,
+// cylinder or sphere as MuJoCo's own, a mesh file's part (an OBJ's groups: its convex pieces) as
+// its convex hull capped at kDefaultHullVertices (a box when the hull is one: a bin's wall), its
+// size between 1 mm and 10 m. Each visual mesh is drawn (no contacts), and the
+// collision geoms are then hidden (group 3); with none, the collision geoms are drawn. The geoms
+// take no class of their own: the enclosing body's childclass gives them friction and colour.
+// Named <prefix>_collision_<j> and <prefix>_visual_<j>, the prefix the enclosing body's name (the
+// link's in <worldbody>).
+void expandUrdfPart(XMLDocument& doc, XMLElement* include, const std::string& path, const std::string& where) {
+  XMLElement* parent = include->Parent()->ToElement();
+  const std::string pname = parent ? parent->Name() : "";
+  if (pname != "worldbody" && pname != "body")
+    throw InputError(where, "a URDF cell part goes in <worldbody> or a <body>, not in <" + pname + ">");
+  for (const XMLElement* b = parent; b && std::strcmp(b->Name(), "body") == 0; b = b->Parent()->ToElement()) {
+    const bool moves = b->BoolAttribute("mocap", false) || b->FirstChildElement("joint") || b->FirstChildElement("freejoint");
+    if (moves)
+      throw InputError(where, std::string("a URDF cell part is static: body '") + (b->Attribute("name") ? b->Attribute("name") : "") +
+                                  "' moves (a joint, a free joint or mocap); include it in <worldbody> or a body welded to it");
+  }
+  UrdfObject part;
+  try {
+    part = loadUrdfObject(path);
+  } catch (const InputError& e) {
+    throw InputError(where, e.what());
+  }
+  const std::string prefix = pname == "body" && parent->Attribute("name") ? parent->Attribute("name") : part.name;
+  XMLElement* asset = doc.RootElement()->InsertEndChild(doc.NewElement("asset"))->ToElement();
+  XMLNode* after = include;
+  auto add = [&](XMLElement* g) { after = parent->InsertAfterChild(after, g); };
+  for (size_t j = 0; j < part.collision.size(); ++j) {
+    UrdfObject::Primitive p = part.collision_primitive[j];
+    const std::string name = prefix + "_collision_" + std::to_string(j);
+    XMLElement* g = doc.NewElement("geom");
+    g->SetAttribute("name", name.c_str());
+    // Its size sane (a millimetre file without its scale is a 300 m bin).
+    ConvexHull hull;
+    try {
+      hull = cappedHull(part.collision[j], kDefaultHullVertices, part.collision_what[j]);
+      TriangleMesh solid;
+      solid.vertices = hull.vertices;
+      solid.faces = hull.faces;
+      checkSolid(solid, part.collision_what[j], 0.001, 10.0);
+    } catch (const InputError& e) {
+      throw InputError(where, e.what());
+    }
+    // A mesh part that is a box (a bin's wall) collides as MuJoCo's box: exact for the planner, and
+    // the cheapest contact there is.
+    if (p.kind == UrdfObject::Primitive::Kind::kNone && hullBox(hull, p.T, p.size)) p.kind = UrdfObject::Primitive::Kind::kBox;
+    if (p.kind == UrdfObject::Primitive::Kind::kNone) {
+      XMLElement* mesh = asset->InsertNewChildElement("mesh");
+      mesh->SetAttribute("name", name.c_str());
+      mesh->SetAttribute("vertex", verticesText(hull.vertices).c_str());
+      g->SetAttribute("type", "mesh");
+      g->SetAttribute("mesh", name.c_str());
+    } else {
+      using Kind = UrdfObject::Primitive::Kind;
+      char buf[120];
+      if (p.kind == Kind::kBox) std::snprintf(buf, sizeof buf, "%.12g %.12g %.12g", p.size.x(), p.size.y(), p.size.z());
+      else if (p.kind == Kind::kCylinder) std::snprintf(buf, sizeof buf, "%.12g %.12g", p.size.x(), p.size.y());
+      else std::snprintf(buf, sizeof buf, "%.12g", p.size.x());
+      g->SetAttribute("type", p.kind == Kind::kBox ? "box" : p.kind == Kind::kCylinder ? "cylinder" : "sphere");
+      g->SetAttribute("size", buf);
+      g->SetAttribute("pos", vec3Text(p.T.translation()).c_str());
+      const Quat q(p.T.linear());
+      std::snprintf(buf, sizeof buf, "%.12g %.12g %.12g %.12g", q.w(), q.x(), q.y(), q.z());
+      g->SetAttribute("quat", buf);
+    }
+    if (!part.visual.empty()) g->SetAttribute("group", 3);
+    add(g);
+  }
+  for (size_t j = 0; j < part.visual.size(); ++j) {
+    const std::string name = prefix + "_visual_" + std::to_string(j);
+    XMLElement* mesh = asset->InsertNewChildElement("mesh");
+    mesh->SetAttribute("name", name.c_str());
+    mesh->SetAttribute("vertex", verticesText(part.visual[j].vertices).c_str());
+    mesh->SetAttribute("face", facesText(part.visual[j].faces).c_str());
+    XMLElement* g = doc.NewElement("geom");
+    g->SetAttribute("name", name.c_str());
+    g->SetAttribute("type", "mesh");
+    g->SetAttribute("mesh", name.c_str());
+    g->SetAttribute("contype", 0);
+    g->SetAttribute("conaffinity", 0);
+    g->SetAttribute("group", 1);
+    add(g);
+  }
+  parent->DeleteChild(include);
+}
+
 // Replaces each <include file=".."/> under `parent` by the included file's top-level children
-// (MuJoCo's semantics), recursively; paths relative to the including file.
+// (MuJoCo's semantics), recursively; paths relative to the including file. A URDF file is a static
+// cell part (expandUrdfPart).
 void expandIncludes(XMLDocument& doc, XMLElement* parent, const std::string& file, int depth,
                     const std::set<std::string>& robot_names) {
   if (depth > 20) throw InputError(file, "<include> nested more than 20 deep (a cycle?)");
@@ -58,6 +210,11 @@ void expandIncludes(XMLDocument& doc, XMLElement* parent, const std::string& fil
       const char* f = e->Attribute("file");
       if (!f) throw InputError(at(file, e), "<include> needs a 'file' attribute");
       const std::string path = (std::filesystem::path(file).parent_path() / f).lexically_normal().string();
+      if (isUrdf(path)) {
+        expandUrdfPart(doc, e, path, at(file, e));
+        e = next;
+        continue;
+      }
       XMLDocument inc;
       parseFile(inc, path);
       checkNoRobot(inc.RootElement(), path, robot_names);
@@ -83,7 +240,34 @@ void collectNames(const XMLElement* e, const char* element, std::vector<const XM
   }
 }
 
+void collectSources(const XMLElement* e, const std::string& file, int depth, std::vector<std::string>& out) {
+  if (depth > 20) throw InputError(file, "<include> nested more than 20 deep (a cycle?)");
+  for (const XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
+    if (std::strcmp(c->Name(), "include") == 0 && c->Attribute("file")) {
+      const std::string path = (std::filesystem::path(file).parent_path() / c->Attribute("file")).lexically_normal().string();
+      out.push_back(path);
+      if (isUrdf(path)) {
+        const UrdfObject part = loadUrdfObject(path);
+        out.insert(out.end(), part.files.begin(), part.files.end());
+      } else {
+        XMLDocument inc;
+        parseFile(inc, path);
+        collectSources(inc.RootElement(), path, depth + 1, out);
+      }
+    }
+    collectSources(c, file, depth, out);
+  }
+}
+
 }  // namespace
+
+std::vector<std::string> sceneSources(const std::string& scene_xml) {
+  XMLDocument scene;
+  parseFile(scene, scene_xml);
+  std::vector<std::string> out;
+  collectSources(scene.RootElement(), scene_xml, 0, out);
+  return out;
+}
 
 std::string composeScene(const std::string& scene_xml, const RobotSpec& robot, const std::vector<ObjectKind>& objects) {
   XMLDocument scene;
@@ -234,15 +418,6 @@ std::string composeScene(const std::string& scene_xml, const RobotSpec& robot, c
     if (c->Attribute("name") && std::strncmp(c->Attribute("name"), "obstacle_", 9) == 0) obstacle = c;
   char buf[200];
   XMLElement* asset = root->LastChildElement("asset");
-  auto numbers = [](const std::vector<Vec3>& points) {
-    std::string out;
-    char v[100];
-    for (const Vec3& p : points) {
-      std::snprintf(v, sizeof v, "%.9g %.9g %.9g ", p.x(), p.y(), p.z());
-      out += v;
-    }
-    return out;
-  };
   for (size_t k = 0; k < objects.size(); ++k) {
     const ObjectKind& o = objects[k];
     const std::string name = "object_" + std::to_string(k);
@@ -273,14 +448,12 @@ std::string composeScene(const std::string& scene_xml, const RobotSpec& robot, c
       for (size_t j = 0; j < solid.pieces->size(); ++j) {
         XMLElement* hull = asset->InsertEndChild(scene.NewElement("mesh"))->ToElement();
         hull->SetAttribute("name", (name + "_hull" + (j ? "_" + std::to_string(j) : "")).c_str());
-        hull->SetAttribute("vertex", numbers((*solid.pieces)[j].vertices).c_str());
+        hull->SetAttribute("vertex", verticesText((*solid.pieces)[j].vertices).c_str());
       }
       XMLElement* visual = asset->InsertEndChild(scene.NewElement("mesh"))->ToElement();
       visual->SetAttribute("name", (name + "_visual").c_str());
-      visual->SetAttribute("vertex", numbers(solid.visual_vertices).c_str());
-      std::string faces;
-      for (const auto& f : solid.visual_faces) faces += std::to_string(f[0]) + " " + std::to_string(f[1]) + " " + std::to_string(f[2]) + " ";
-      visual->SetAttribute("face", faces.c_str());
+      visual->SetAttribute("vertex", verticesText(solid.visual_vertices).c_str());
+      visual->SetAttribute("face", facesText(solid.visual_faces).c_str());
       geom->SetAttribute("mesh", (name + "_hull").c_str());
       geom->SetAttribute("group", 3);
     } else {

@@ -26,6 +26,11 @@
 
 namespace mm {
 
+/// The files a scene reads besides itself, for a campaign's fingerprint: each file it <include>s
+/// (recursively), and each URDF cell part's meshes, in the order met. Throws InputError as
+/// composeScene would for a file that cannot be read.
+std::vector<std::string> sceneSources(const std::string& scene_xml);
+
 /// The scene's MJCF with the robot mounted, `objects` added as bodies object_0, object_1, ... (a
 /// free joint each, and one box or cylinder geom, or a mesh kind's convex pieces (group 3) and its
 /// drawn mesh (no contacts) with its <inertial>; in the base frame, where MuJoCo's initial state

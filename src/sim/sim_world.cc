@@ -531,17 +531,33 @@ std::vector<Obstacle> SimWorld::staticObstacles() const {
   mj_kinematics(I.m, I.d);
   std::vector<Obstacle> out;
   for (int g = 0; g < I.m->ngeom; ++g) {
-    if (!I.static_geom[g]) continue;
+    if (!I.static_geom[g] || (I.m->geom_contype[g] == 0 && I.m->geom_conaffinity[g] == 0)) continue;  // drawn only
     Obstacle o;
     const mjtNum* s = I.m->geom_size + 3 * g;
+    o.T_world = poseOf(I.d->geom_xpos + 3 * g, I.d->geom_xmat + 9 * g);
     switch (I.m->geom_type[g]) {
       case mjGEOM_BOX: o.type = Obstacle::Type::kBox; o.size = Vec3(s[0], s[1], s[2]); break;
       case mjGEOM_SPHERE: o.type = Obstacle::Type::kSphere; o.size = Vec3(s[0], 0, 0); break;
       case mjGEOM_CYLINDER: o.type = Obstacle::Type::kCylinder; o.size = Vec3(s[0], s[1], 0); break;
       case mjGEOM_CAPSULE: o.type = Obstacle::Type::kCapsule; o.size = Vec3(s[0], s[1], 0); break;
-      default: continue;  // planes, meshes: not exported
+      case mjGEOM_MESH: {
+        // A convex mesh piece (a URDF part's, a scene's own) as the box of its vertices in the
+        // geom's frame (MuJoCo's: the piece's principal axes): exact for a box-shaped piece, else
+        // larger than the piece, never smaller.
+        const int mesh = I.m->geom_dataid[g];
+        const float* v = I.m->mesh_vert + 3 * I.m->mesh_vertadr[mesh];
+        Vec3 lo = Vec3::Constant(INFINITY), hi = -lo;
+        for (int k = 0; k < I.m->mesh_vertnum[mesh]; ++k) {
+          const Vec3 p(v[3 * k], v[3 * k + 1], v[3 * k + 2]);
+          lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+        }
+        o.type = Obstacle::Type::kBox;
+        o.size = (hi - lo) / 2;
+        o.T_world = o.T_world * Eigen::Translation3d((hi + lo) / 2);
+        break;
+      }
+      default: continue;  // planes: not exported
     }
-    o.T_world = poseOf(I.d->geom_xpos + 3 * g, I.d->geom_xmat + 9 * g);
     const char* name = mj_id2name(I.m, mjOBJ_GEOM, g);
     o.name = name ? name : "geom" + std::to_string(g);
     out.push_back(o);

@@ -187,7 +187,9 @@ class SimWorld {
   /// Controls per step in a recorded log (the model's actuators: arm joints and fingers).
   int controlsPerStep() const;
 
-  /// Static obstacles as the planner should know them (the world body's geoms: table, bins, tray).
+  /// Static obstacles as the planner should know them: the colliding geoms welded to the world
+  /// (table, bins, tray; planes out of reach left out), a mesh geom as the box of its vertices in its
+  /// frame (a convex piece of a URDF part: exact for a box, else larger, never smaller).
   std::vector<Obstacle> staticObstacles() const;
 
   /// [N] The largest net contact force on one part of the robot from outside it, each arm body on
