@@ -319,324 +319,355 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   std::vector<Local> obstacles, pads, unsorted_pads;
   std::vector<PadKey> pad_keys;
   std::vector<std::pair<double, bool>> ys;
-  std::vector<GraspCandidate> found;
-  const int n_seeds = std::min<int>(o.seeds, static_cast<int>(seedable.size()));
-  res.seeds = n_seeds;
-  for (int s = 0; s < n_seeds; ++s) {
-    const int seed = seedable[rng.below(seedable.size())];
-    const Vec3& ps = P[seed];
-    grid.near(ps, o.frame_radius, frame_nb);
-    Mat3 M = Mat3::Zero();
-    for (int j : frame_nb) M += N[j] * N[j].transpose();
-    const Eigen::SelfAdjointEigenSolver<Mat3> es(M);
-    Vec3 normal = es.eigenvectors().col(2), axis = es.eigenvectors().col(0);
-    if (normal.dot(N[seed]) < 0) normal = -normal;
-    // A face that is flat (normals all alike) curves about no axis in particular (the eigenvector
-    // the solver returns is any in its plane, the same for every seed of a noise-free face): the
-    // axis is taken along the face's longest extent around the seed, so that the first hand closes
-    // across its narrowest, and three more are tried turned by 45 degrees.
-    std::vector<Vec3> axes{axis};
-    if (es.eigenvalues()(1) < 0.02 * es.eigenvalues()(2)) {
-      constexpr double kFaceRadius = 0.04, kFaceOffset = 0.003;  // [m] the face's points: this near the seed, this near its plane
-      const Vec3 e1 = (axis - axis.dot(normal) * normal).normalized(), e2 = normal.cross(e1);
-      grid.near(ps, kFaceRadius, frame_nb);
-      Eigen::Matrix2d C = Eigen::Matrix2d::Zero();
-      Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-      std::vector<Eigen::Vector2d> face;
-      for (int j : frame_nb) {
-        const Vec3 r = P[j] - ps;
-        if (!cell[j] && std::abs(normal.dot(r)) <= kFaceOffset && N[j].dot(normal) >= std::cos(o.cone))
-          face.emplace_back(e1.dot(r), e2.dot(r)), mean += face.back();
-      }
-      if (face.size() >= 10) {
-        mean /= static_cast<double>(face.size());
-        for (const Eigen::Vector2d& f : face) C += (f - mean) * (f - mean).transpose();
-        const Eigen::Vector2d major = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(C).eigenvectors().col(1);
-        axes[0] = (major.x() * e1 + major.y() * e2).normalized();
-      }
-      for (int k = 1; k < 4; ++k) axes.push_back(Eigen::AngleAxisd(M_PI / 4 * k, normal) * axes[0]);
-    }
-    // The blocks within reach (the whole pile, mostly) of the tested points (all but the floor's
-    // within its noise, which no test reads: the floor is checked as its plane), each block's
-    // centre about the seed.
-    blocks.clear();
-    for (const Block& b : all_blocks)
-      if ((b.centre - ps).norm() <= reach + b.radius + 1e-9) blocks.push_back({b.centre - ps, b.radius, b.first, b.last, b.half});
-    const double sx0 = ps.x(), sy0 = ps.y(), sz0 = ps.z();
-    for (const Vec3& ax : axes) {
-      const Vec3 binormal = ax.cross(normal).normalized();
-      // The approaches: -normal turned about the axis; each hand also rolled about its approach to
-      // close along the level direction across it (the hand body's width along the floor, not
-      // dipping into it), unless its closing axis is that already.
-      std::vector<std::pair<Vec3, Vec3>> hands;  // approach z, closing axis y
-      for (int a = 0; a < o.approach_steps; ++a) {
-        const double theta = -M_PI / 2 + M_PI * a / o.approach_steps;
-        const Mat3 turn = Eigen::AngleAxisd(theta, ax).toRotationMatrix();
-        const Vec3 z = turn * -normal, y = turn * binormal;
-        hands.push_back({z, y});
-        // The level direction across the approach (for an approach near straight down, a turn
-        // about it: one more heading).
-        const Vec3 u = z.cross(down);
-        if (std::acos(std::clamp(z.dot(down), -1.0, 1.0)) <= o.max_tilt && u.norm() > 1e-3) {
-          const Vec3 level = (u.dot(y) < 0 ? -u : u).normalized();
-          if (level.dot(y) < std::cos(o.level_turn)) hands.push_back({z, level});
+  // The hands of `n_seeds` seeds, ranked into res.candidates; the second look of a view
+  // that gave none (snap_down, floor_contacts): `second_look`.
+  auto search = [&](bool second_look) {
+    std::vector<GraspCandidate> found;
+    const int n_seeds = std::min<int>(o.seeds, static_cast<int>(seedable.size()));
+    res.seeds += n_seeds;
+    for (int s = 0; s < n_seeds; ++s) {
+      const int seed = seedable[rng.below(seedable.size())];
+      const Vec3& ps = P[seed];
+      grid.near(ps, o.frame_radius, frame_nb);
+      Mat3 M = Mat3::Zero();
+      for (int j : frame_nb) M += N[j] * N[j].transpose();
+      const Eigen::SelfAdjointEigenSolver<Mat3> es(M);
+      Vec3 normal = es.eigenvectors().col(2), axis = es.eigenvectors().col(0);
+      if (normal.dot(N[seed]) < 0) normal = -normal;
+      // A face that is flat (normals all alike) curves about no axis in particular (the eigenvector
+      // the solver returns is any in its plane, the same for every seed of a noise-free face): the
+      // axis is taken along the face's longest extent around the seed, so that the first hand closes
+      // across its narrowest, and three more are tried turned by 45 degrees.
+      std::vector<Vec3> axes{axis};
+      if (es.eigenvalues()(1) < 0.02 * es.eigenvalues()(2)) {
+        constexpr double kFaceRadius = 0.04, kFaceOffset = 0.003;  // [m] the face's points: this near the seed, this near its plane
+        const Vec3 e1 = (axis - axis.dot(normal) * normal).normalized(), e2 = normal.cross(e1);
+        grid.near(ps, kFaceRadius, frame_nb);
+        Eigen::Matrix2d C = Eigen::Matrix2d::Zero();
+        Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+        std::vector<Eigen::Vector2d> face;
+        for (int j : frame_nb) {
+          const Vec3 r = P[j] - ps;
+          if (!cell[j] && std::abs(normal.dot(r)) <= kFaceOffset && N[j].dot(normal) >= std::cos(o.cone))
+            face.emplace_back(e1.dot(r), e2.dot(r)), mean += face.back();
         }
-      }
-      for (const auto& [z, y] : hands) {
-        ++res.hands;
-        if (std::acos(std::clamp(z.dot(down), -1.0, 1.0)) > o.max_tilt) {
-          ++res.tilted;
-          continue;
+        if (face.size() >= 10) {
+          mean /= static_cast<double>(face.size());
+          for (const Eigen::Vector2d& f : face) C += (f - mean) * (f - mean).transpose();
+          const Eigen::Vector2d major = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(C).eigenvectors().col(1);
+          axes[0] = (major.x() * e1 + major.y() * e2).normalized();
         }
-        Vec3 x = y.cross(z);
-        Mat3 R;
-        R << x, y, z;
-        // The tested points in the hand's frame, by blocks: a block whose bounding box (or ball)
-        // misses a box [-hx, hx] x [-hy, hy] x [zlo, zhi] of the hand's frame holds none of its
-        // points and is skipped whole.
-        auto blockMeets = [&](const Block& b, double hx, double hy, double zlo, double zhi) {
-          // The block's reach along each axis: its bounding box's (its ball's, if less).
-          const double bx = x.dot(b.centre), by = y.dot(b.centre), bz = z.dot(b.centre);
-          const double sx = std::min(b.radius, x.cwiseAbs().dot(b.half)) + 1e-9, sy = std::min(b.radius, y.cwiseAbs().dot(b.half)) + 1e-9,
-                       sz = std::min(b.radius, z.cwiseAbs().dot(b.half)) + 1e-9;
-          return std::abs(bx) <= hx + sx && std::abs(by) <= hy + sy && bz >= zlo - sz && bz <= zhi + sz;
-        };
-        // Tested point k in the hand's frame about the seed (both passes below read it so: the same
-        // coordinates in each).
-        auto inHand = [&](size_t k) {
-          return std::array<double, 3>{x.x() * (tx[k] - sx0) + x.y() * (ty[k] - sy0) + x.z() * (tz[k] - sz0),
-                                       y.x() * (tx[k] - sx0) + y.y() * (ty[k] - sy0) + y.z() * (tz[k] - sz0),
-                                       z.x() * (tx[k] - sx0) + z.y() * (ty[k] - sy0) + z.z() * (tz[k] - sz0)};
-        };
-        // The points that may lie between the pads at some depth (the contacts; not the floor's),
-        // read first: most hands end on them alone (too wide, on a wall, too low).
-        unsorted_pads.clear();
-        for (const Block& b : blocks) {
-          if (!blockMeets(b, o.pad_half_width, half_span, pads_z_lo, pads_z_hi)) continue;
-          for (size_t k = b.first; k < b.last; ++k) {
-            const auto [px, py, pz] = inHand(k);
-            if ((std::abs(px) <= o.pad_half_width) & (std::abs(py) <= half_span) & (pz >= pads_z_lo) & (pz <= pads_z_hi) & !t_floor[k])
-              unsorted_pads.push_back({Vec3(px, py, pz), t_cell[k]});
+        for (int k = 1; k < 4; ++k) axes.push_back(Eigen::AngleAxisd(M_PI / 4 * k, normal) * axes[0]);
+      }
+      // The blocks within reach (the whole pile, mostly) of the tested points (all but the floor's
+      // within its noise, which no test reads: the floor is checked as its plane), each block's
+      // centre about the seed.
+      blocks.clear();
+      for (const Block& b : all_blocks)
+        if ((b.centre - ps).norm() <= reach + b.radius + 1e-9) blocks.push_back({b.centre - ps, b.radius, b.first, b.last, b.half});
+      const double sx0 = ps.x(), sy0 = ps.y(), sz0 = ps.z();
+      for (const Vec3& ax : axes) {
+        const Vec3 binormal = ax.cross(normal).normalized();
+        // The approaches: -normal turned about the axis; each hand also rolled about its approach to
+        // close along the level direction across it (the hand body's width along the floor, not
+        // dipping into it), unless its closing axis is that already.
+        std::vector<std::pair<Vec3, Vec3>> hands;  // approach z, closing axis y
+        for (int a = 0; a < o.approach_steps; ++a) {
+          const double theta = -M_PI / 2 + M_PI * a / o.approach_steps;
+          const Mat3 turn = Eigen::AngleAxisd(theta, ax).toRotationMatrix();
+          Vec3 z = turn * -normal, y = turn * binormal;
+          // The second look: an approach this near straight down is straight down, its closing axis
+          // level (the normals' noise tilts a low flat top's hands, and a tilted hand's far finger
+          // dips to the floor).
+          if (second_look && z.dot(down) >= std::cos(o.snap_down) && (y - y.dot(down) * down).norm() > 1e-3) {
+            z = down;
+            y = (y - y.dot(down) * down).normalized();
+          }
+          hands.push_back({z, y});
+          // The level direction across the approach (for an approach near straight down, a turn
+          // about it: one more heading).
+          const Vec3 u = z.cross(down);
+          if (std::acos(std::clamp(z.dot(down), -1.0, 1.0)) <= o.max_tilt && u.norm() > 1e-3) {
+            const Vec3 level = (u.dot(y) < 0 ? -u : u).normalized();
+            if (level.dot(y) < std::cos(o.level_turn)) hands.push_back({z, level});
           }
         }
-        // Across the pads, a wall's point after an object's at the same y: each depth's run along y
-        // (ys) is then read in order, with no sort of its own. Sorted by small keys (y, a wall's
-        // bit and the place), then gathered.
-        pad_keys.clear();
-        for (size_t j = 0; j < unsorted_pads.size(); ++j)
-          pad_keys.push_back({unsorted_pads[j].p.y(), static_cast<uint32_t>(j << 1 | (unsorted_pads[j].part == kWall))});
-        std::sort(pad_keys.begin(), pad_keys.end(),
-                  [](const PadKey& a, const PadKey& b) { return a.y < b.y || (a.y == b.y && (a.at & 1) < (b.at & 1)); });
-        pads.clear();
-        for (const PadKey& key : pad_keys) pads.push_back(unsorted_pads[key.at >> 1]);
-        // The obstacles (but the floor within its noise, checked as the plane) in the boxes the
-        // fingers and the body sweep at some depth, block by block in the tested points' order:
-        // only when a depth first sweeps the hand.
-        obstacles.clear();
-        bool have_obstacles = false;
-        auto obstaclesOf = [&]() -> const std::vector<Local>& {
-          if (!have_obstacles)
-            for (const Block& b : blocks) {
-              if (!blockMeets(b, fingers_x, box_y, fingers_z_lo, fingers_z_hi) && !blockMeets(b, body_x, box_y, body_z_lo, body_z_hi)) continue;
-              for (size_t k = b.first; k < b.last; ++k) {
-                const auto [px, py, pz] = inHand(k);
-                const double across = std::abs(px);
-                const bool fingers = (across <= fingers_x) & (pz >= fingers_z_lo) & (pz <= fingers_z_hi);
-                const bool body = (across <= body_x) & (pz >= body_z_lo) & (pz <= body_z_hi);
-                if ((fingers | body) & (std::abs(py) <= box_y) & !t_on_plane[k]) obstacles.push_back({Vec3(px, py, pz), t_cell[k]});
-              }
+        for (const auto& [z, y] : hands) {
+          ++res.hands;
+          if (std::acos(std::clamp(z.dot(down), -1.0, 1.0)) > o.max_tilt) {
+            ++res.tilted;
+            continue;
+          }
+          Vec3 x = y.cross(z);
+          Mat3 R;
+          R << x, y, z;
+          // The tested points in the hand's frame, by blocks: a block whose bounding box (or ball)
+          // misses a box [-hx, hx] x [-hy, hy] x [zlo, zhi] of the hand's frame holds none of its
+          // points and is skipped whole.
+          auto blockMeets = [&](const Block& b, double hx, double hy, double zlo, double zhi) {
+            // The block's reach along each axis: its bounding box's (its ball's, if less).
+            const double bx = x.dot(b.centre), by = y.dot(b.centre), bz = z.dot(b.centre);
+            const double sx = std::min(b.radius, x.cwiseAbs().dot(b.half)) + 1e-9, sy = std::min(b.radius, y.cwiseAbs().dot(b.half)) + 1e-9,
+                         sz = std::min(b.radius, z.cwiseAbs().dot(b.half)) + 1e-9;
+            return std::abs(bx) <= hx + sx && std::abs(by) <= hy + sy && bz >= zlo - sz && bz <= zhi + sz;
+          };
+          // Tested point k in the hand's frame about the seed (both passes below read it so: the same
+          // coordinates in each).
+          auto inHand = [&](size_t k) {
+            return std::array<double, 3>{x.x() * (tx[k] - sx0) + x.y() * (ty[k] - sy0) + x.z() * (tz[k] - sz0),
+                                         y.x() * (tx[k] - sx0) + y.y() * (ty[k] - sy0) + y.z() * (tz[k] - sz0),
+                                         z.x() * (tx[k] - sx0) + z.y() * (ty[k] - sy0) + z.z() * (tz[k] - sz0)};
+          };
+          // The points that may lie between the pads at some depth (the contacts; not the floor's),
+          // read first: most hands end on them alone (too wide, on a wall, too low).
+          unsorted_pads.clear();
+          for (const Block& b : blocks) {
+            if (!blockMeets(b, o.pad_half_width, half_span, pads_z_lo, pads_z_hi)) continue;
+            for (size_t k = b.first; k < b.last; ++k) {
+              const auto [px, py, pz] = inHand(k);
+              if ((std::abs(px) <= o.pad_half_width) & (std::abs(py) <= half_span) & (pz >= pads_z_lo) & (pz <= pads_z_hi) & !t_floor[k])
+                unsorted_pads.push_back({Vec3(px, py, pz), t_cell[k]});
             }
-          have_obstacles = true;
-          return obstacles;
-        };
-        // Push the hand forward: the TCP at depth d along z from the seed. The deepest hand whose
-        // straight approach is clear, with enough points between the pads, is kept.
-        bool have = false;
-        GraspCandidate best;
-        int best_contacts = 0, best_points = 0;
-        double best_clear = 0, best_margin = 0;
-        enum { kNone, kOnCell, kFingers, kHand, kWide, kLow, kSparse, kAntipodal } why = kNone;
-        for (double d = d_first; d <= d_last; d += o.depth_step) {
-          // Between the pads: the run of points along y around the seed, split by a gap a finger fits in.
-          ys.clear();  // y, a wall's point; in order
-          for (const Local& l : pads) {
-            const double zz = l.p.z() - d;
-            if (zz >= o.pad_z_min && zz <= o.pad_z_max && std::abs(l.p.y()) <= o.hand_opening / 2 + o.finger_thickness)
-              ys.emplace_back(l.p.y(), l.part == kWall);
           }
-          double lo = 0, hi = 0;
-          bool on_cell = false;
-          for (const auto& [yy, is_cell] : ys)  // upwards from the seed
-            if (yy > hi && yy - hi < o.finger_thickness) hi = yy, on_cell |= is_cell;
-          for (auto it = ys.rbegin(); it != ys.rend(); ++it)
-            if (it->first < lo && lo - it->first < o.finger_thickness) lo = it->first, on_cell |= it->second;
-          if (on_cell) {  // the pads would close on a wall
-            if (!have) why = kOnCell;
-            break;
-          }
-          const double width = hi - lo, c = (lo + hi) / 2, open = width / 2 + o.finger_margin;
-          if (2 * open > o.hand_opening) {
-            if (!have) why = kWide;
-            break;
-          }
-          // The floor is the bin's known plane, not its noisy points (those within its noise are
-          // left out below; the floor's points above them stay obstacles): the fingers' and the
-          // hand's corners (padded) this far above it.
-          double lowest = INFINITY;
-          for (int side = -1; side <= 1; side += 2)
+          // Across the pads, a wall's point after an object's at the same y: each depth's run along y
+          // (ys) is then read in order, with no sort of its own. Sorted by small keys (y, a wall's
+          // bit and the place), then gathered.
+          pad_keys.clear();
+          for (size_t j = 0; j < unsorted_pads.size(); ++j)
+            pad_keys.push_back({unsorted_pads[j].p.y(), static_cast<uint32_t>(j << 1 | (unsorted_pads[j].part == kWall))});
+          std::sort(pad_keys.begin(), pad_keys.end(),
+                    [](const PadKey& a, const PadKey& b) { return a.y < b.y || (a.y == b.y && (a.at & 1) < (b.at & 1)); });
+          pads.clear();
+          for (const PadKey& key : pad_keys) pads.push_back(unsorted_pads[key.at >> 1]);
+          // The obstacles (but the floor within its noise, checked as the plane) in the boxes the
+          // fingers and the body sweep at some depth, block by block in the tested points' order:
+          // only when a depth first sweeps the hand.
+          obstacles.clear();
+          bool have_obstacles = false;
+          auto obstaclesOf = [&]() -> const std::vector<Local>& {
+            if (!have_obstacles)
+              for (const Block& b : blocks) {
+                if (!blockMeets(b, fingers_x, box_y, fingers_z_lo, fingers_z_hi) && !blockMeets(b, body_x, box_y, body_z_lo, body_z_hi)) continue;
+                for (size_t k = b.first; k < b.last; ++k) {
+                  const auto [px, py, pz] = inHand(k);
+                  const double across = std::abs(px);
+                  const bool fingers = (across <= fingers_x) & (pz >= fingers_z_lo) & (pz <= fingers_z_hi);
+                  const bool body = (across <= body_x) & (pz >= body_z_lo) & (pz <= body_z_hi);
+                  if ((fingers | body) & (std::abs(py) <= box_y) & !t_on_plane[k]) obstacles.push_back({Vec3(px, py, pz), t_cell[k]});
+                }
+              }
+            have_obstacles = true;
+            return obstacles;
+          };
+          // Push the hand forward: the TCP at depth d along z from the seed. The deepest hand whose
+          // straight approach is clear, with enough points between the pads, is kept.
+          bool have = false;
+          GraspCandidate best;
+          int best_contacts = 0, best_points = 0;
+          double best_clear = 0, best_margin = 0;
+          enum { kNone, kOnCell, kFingers, kHand, kWide, kLow, kSparse, kAntipodal } why = kNone;
+          // The second look: the deepest hand the pads hold with floor_contacts cells (fewer than
+          // min_contacts), kept if no hand is and the next depth is below the floor (the object lies
+          // too low to fill more).
+          bool have_low = false;
+          GraspCandidate low;
+          int low_contacts = 0, low_points = 0;
+          double low_clear = 0, low_margin = 0;
+          for (double d = d_first; d <= d_last; d += o.depth_step) {
+            // Between the pads: the run of points along y around the seed, split by a gap a finger fits in.
+            ys.clear();  // y, a wall's point; in order
+            for (const Local& l : pads) {
+              const double zz = l.p.z() - d;
+              if (zz >= o.pad_z_min && zz <= o.pad_z_max && std::abs(l.p.y()) <= o.hand_opening / 2 + o.finger_thickness)
+                ys.emplace_back(l.p.y(), l.part == kWall);
+            }
+            double lo = 0, hi = 0;
+            bool on_cell = false;
+            for (const auto& [yy, is_cell] : ys)  // upwards from the seed
+              if (yy > hi && yy - hi < o.finger_thickness) hi = yy, on_cell |= is_cell;
+            for (auto it = ys.rbegin(); it != ys.rend(); ++it)
+              if (it->first < lo && lo - it->first < o.finger_thickness) lo = it->first, on_cell |= it->second;
+            if (on_cell) {  // the pads would close on a wall
+              if (!have) why = kOnCell;
+              break;
+            }
+            const double width = hi - lo, c = (lo + hi) / 2, open = width / 2 + o.finger_margin;
+            if (2 * open > o.hand_opening) {
+              if (!have) why = kWide;
+              break;
+            }
+            // The floor is the bin's known plane, not its noisy points (those within its noise are
+            // left out below; the floor's points above them stay obstacles): the fingers' and the
+            // hand's corners (padded) this far above it.
+            double lowest = INFINITY;
+            for (int side = -1; side <= 1; side += 2)
+              for (double sx : {-1.0, 1.0})
+                for (double zz : {o.pad_z_min, o.pad_z_max + pad})
+                  for (double yy : {open, open + o.finger_thickness + pad})
+                    lowest = std::min(lowest, height(ps + R * Vec3(sx * (o.pad_half_width + pad), c + side * yy, d + zz)));
             for (double sx : {-1.0, 1.0})
-              for (double zz : {o.pad_z_min, o.pad_z_max + pad})
-                for (double yy : {open, open + o.finger_thickness + pad})
-                  lowest = std::min(lowest, height(ps + R * Vec3(sx * (o.pad_half_width + pad), c + side * yy, d + zz)));
-          for (double sx : {-1.0, 1.0})
-            for (double sy : {-1.0, 1.0})
-              lowest = std::min(lowest, height(ps + R * Vec3(sx * (o.hand_half_thickness + pad), c + sy * (o.hand_half_width + pad), d - o.hand_back + pad)));
-          if (lowest < o.floor_clearance) {
-            if (!have) why = kLow;
-            break;  // deeper is lower
-          }
-          // The fingers and the hand body, swept along the straight approach back from the grasp.
-          int blocked = kNone;
-          int between = 0;
-          double clear = 0.02;
-          for (const Local& l : obstaclesOf()) {
-            const double zz = l.p.z() - d, yy = l.p.y() - c, ay = std::abs(yy);
-            if (zz <= o.pad_z_max + pad && zz >= -o.hand_back - o.approach_clear && std::abs(l.p.x()) <= o.pad_half_width + pad &&
-                ay >= open && ay <= open + o.finger_thickness + pad) {
-              blocked = kFingers;
-              break;
+              for (double sy : {-1.0, 1.0})
+                lowest = std::min(lowest, height(ps + R * Vec3(sx * (o.hand_half_thickness + pad), c + sy * (o.hand_half_width + pad), d - o.hand_back + pad)));
+            if (lowest < o.floor_clearance) {
+              if (!have && have_low) {
+                have = true;
+                best = low;
+                best_contacts = low_contacts, best_points = low_points, best_clear = low_clear, best_margin = low_margin;
+              }
+              if (!have) why = kLow;
+              break;  // deeper is lower
             }
-            if (zz < -o.hand_back + pad && zz >= -o.hand_back - o.hand_length - o.approach_clear &&
-                std::abs(l.p.x()) <= o.hand_half_thickness + pad && ay <= o.hand_half_width + pad) {
-              blocked = kHand;
-              break;
+            // The fingers and the hand body, swept along the straight approach back from the grasp.
+            int blocked = kNone;
+            int between = 0;
+            double clear = 0.02;
+            for (const Local& l : obstaclesOf()) {
+              const double zz = l.p.z() - d, yy = l.p.y() - c, ay = std::abs(yy);
+              if (zz <= o.pad_z_max + pad && zz >= -o.hand_back - o.approach_clear && std::abs(l.p.x()) <= o.pad_half_width + pad &&
+                  ay >= open && ay <= open + o.finger_thickness + pad) {
+                blocked = kFingers;
+                break;
+              }
+              if (zz < -o.hand_back + pad && zz >= -o.hand_back - o.hand_length - o.approach_clear &&
+                  std::abs(l.p.x()) <= o.hand_half_thickness + pad && ay <= o.hand_half_width + pad) {
+                blocked = kHand;
+                break;
+              }
+              if (std::abs(l.p.x()) <= o.pad_half_width && zz >= o.pad_z_min && zz <= o.pad_z_max) {
+                if (ay < open) between += l.part != kFloor;
+                else clear = std::min(clear, ay - open - o.finger_thickness);
+              }
             }
-            if (std::abs(l.p.x()) <= o.pad_half_width && zz >= o.pad_z_min && zz <= o.pad_z_max) {
-              if (ay < open) between += l.part != kFloor;
-              else clear = std::min(clear, ay - open - o.finger_thickness);
+            if (blocked != kNone) {
+              if (!have) why = static_cast<decltype(why)>(blocked);
+              break;  // deeper only sweeps further into what blocked it
             }
-          }
-          if (blocked != kNone) {
-            if (!have) why = static_cast<decltype(why)>(blocked);
-            break;  // deeper only sweeps further into what blocked it
-          }
-          if (between < o.min_points) {
-            if (!have) why = kSparse;
-            continue;
-          }
-          // Antipodal contacts. The faces the pads meet are mostly unseen from above (a wall's
-          // sides), so a contact face is the outermost surface of the points between the pads: per
-          // cell of a grid over the pad (x across it, z along it), the outermost y on each side; a
-          // plane y = a x + b z + c fitted to those, its normal's angle from the closing axis
-          // (within the friction cone: the pads squeeze, they do not push the object out).
-          constexpr int kNx = 3, kNz = 6;
-          double ext[2][kNx][kNz];
-          bool filled[2][kNx][kNz] = {};
-          for (const Local& l : pads) {
-            const double zz = l.p.z() - d;
-            if (zz < o.pad_z_min || zz > o.pad_z_max || l.p.y() < lo || l.p.y() > hi) continue;
-            const int ix = std::clamp(static_cast<int>((l.p.x() + o.pad_half_width) / (2 * o.pad_half_width) * kNx), 0, kNx - 1);
-            const int iz = std::clamp(static_cast<int>((zz - o.pad_z_min) / (o.pad_z_max - o.pad_z_min) * kNz), 0, kNz - 1);
+            if (between < o.min_points) {
+              if (!have) why = kSparse;
+              continue;
+            }
+            // Antipodal contacts. The faces the pads meet are mostly unseen from above (a wall's
+            // sides), so a contact face is the outermost surface of the points between the pads: per
+            // cell of a grid over the pad (x across it, z along it), the outermost y on each side; a
+            // plane y = a x + b z + c fitted to those, its normal's angle from the closing axis
+            // (within the friction cone: the pads squeeze, they do not push the object out).
+            constexpr int kNx = 3, kNz = 6;
+            double ext[2][kNx][kNz];
+            bool filled[2][kNx][kNz] = {};
+            for (const Local& l : pads) {
+              const double zz = l.p.z() - d;
+              if (zz < o.pad_z_min || zz > o.pad_z_max || l.p.y() < lo || l.p.y() > hi) continue;
+              const int ix = std::clamp(static_cast<int>((l.p.x() + o.pad_half_width) / (2 * o.pad_half_width) * kNx), 0, kNx - 1);
+              const int iz = std::clamp(static_cast<int>((zz - o.pad_z_min) / (o.pad_z_max - o.pad_z_min) * kNz), 0, kNz - 1);
+              for (int side = 0; side < 2; ++side) {
+                const double yy = side == 0 ? -l.p.y() : l.p.y();  // outward: -y on the left, +y on the right
+                if (!filled[side][ix][iz] || yy > ext[side][ix][iz]) ext[side][ix][iz] = yy, filled[side][ix][iz] = true;
+              }
+            }
+            int cells = 0;
+            double worst = 0;
             for (int side = 0; side < 2; ++side) {
-              const double yy = side == 0 ? -l.p.y() : l.p.y();  // outward: -y on the left, +y on the right
-              if (!filled[side][ix][iz] || yy > ext[side][ix][iz]) ext[side][ix][iz] = yy, filled[side][ix][iz] = true;
+              Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
+              Vec3 Atb = Vec3::Zero();
+              int n = 0;
+              for (int ix = 0; ix < kNx; ++ix)
+                for (int iz = 0; iz < kNz; ++iz) {
+                  if (!filled[side][ix][iz]) continue;
+                  const Vec3 row(-o.pad_half_width + (ix + 0.5) * 2 * o.pad_half_width / kNx,
+                                 o.pad_z_min + (iz + 0.5) * (o.pad_z_max - o.pad_z_min) / kNz, 1.0);
+                  AtA += row * row.transpose();
+                  Atb += row * ext[side][ix][iz];
+                  ++n;
+                }
+              // A slope no cell constrains (one column, one row) is taken as none: a small ridge.
+              AtA(0, 0) += 1e-6, AtA(1, 1) += 1e-6;
+              const Vec3 abc = AtA.ldlt().solve(Atb);
+              worst = std::max(worst, std::atan(std::hypot(abc.x(), abc.y())));
+              cells = side == 0 ? n : std::min(cells, n);
             }
+            if (second_look && worst <= o.cone && cells < o.min_contacts && cells >= o.floor_contacts) {
+              have_low = true;
+              low.T_world_tcp = makePose(ps + R * Vec3(0, c, d), R);
+              low.width = width;
+              low_contacts = cells, low_margin = o.cone - worst, low_points = between, low_clear = clear;
+            }
+            if (cells < o.min_contacts || worst > o.cone) {
+              if (!have) why = kAntipodal;
+              continue;
+            }
+            have = true;
+            best.T_world_tcp = makePose(ps + R * Vec3(0, c, d), R);
+            best.width = width;
+            best_contacts = cells;
+            best_margin = o.cone - worst;
+            best_points = between;
+            best_clear = clear;
           }
-          int cells = 0;
-          double worst = 0;
-          for (int side = 0; side < 2; ++side) {
-            Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
-            Vec3 Atb = Vec3::Zero();
-            int n = 0;
-            for (int ix = 0; ix < kNx; ++ix)
-              for (int iz = 0; iz < kNz; ++iz) {
-                if (!filled[side][ix][iz]) continue;
-                const Vec3 row(-o.pad_half_width + (ix + 0.5) * 2 * o.pad_half_width / kNx,
-                               o.pad_z_min + (iz + 0.5) * (o.pad_z_max - o.pad_z_min) / kNz, 1.0);
-                AtA += row * row.transpose();
-                Atb += row * ext[side][ix][iz];
-                ++n;
-              }
-            // A slope no cell constrains (one column, one row) is taken as none: a small ridge.
-            AtA(0, 0) += 1e-6, AtA(1, 1) += 1e-6;
-            const Vec3 abc = AtA.ldlt().solve(Atb);
-            worst = std::max(worst, std::atan(std::hypot(abc.x(), abc.y())));
-            cells = side == 0 ? n : std::min(cells, n);
-          }
-          if (cells < o.min_contacts || worst > o.cone) {
-            if (!have) why = kAntipodal;
+          if (!have) {
+            if (why == kOnCell) ++res.on_cell;
+            else if (why == kFingers) ++res.fingers_blocked;
+            else if (why == kHand) ++res.hand_blocked;
+            else if (why == kWide) ++res.too_wide;
+            else if (why == kLow) ++res.too_low;
+            else if (why == kSparse) ++res.sparse;
+            else ++res.not_antipodal;
             continue;
           }
-          have = true;
-          best.T_world_tcp = makePose(ps + R * Vec3(0, c, d), R);
-          best.width = width;
-          best_contacts = cells;
-          best_margin = o.cone - worst;
-          best_points = between;
-          best_clear = clear;
+          // The fingers' volume at the grasp, out of the space the camera could not see.
+          const Mat3& Rg = best.T_world_tcp.linear();
+          const Vec3 tcp = best.T_world_tcp.translation();
+          const double open = best.width / 2 + o.finger_margin;
+          if (!o.boxes.empty() && fingersInNeighbour(best, open)) {
+            ++res.neighbour;
+            continue;
+          }
+          int total = 0, hidden = 0;
+          for (int side = -1; side <= 1; side += 2)
+            for (double fx : {-o.pad_half_width, 0.0, o.pad_half_width})
+              for (const double fz : pad_zs)
+                for (double fy : {open, open + o.finger_thickness}) {
+                  ++total;
+                  hidden += unseen(tcp + Rg * Vec3(fx, side * fy, fz));
+                }
+          if (hidden > o.max_unknown * total) {
+            ++res.unseen;
+            continue;
+          }
+          // The TCP's x nearer the preferred direction (the same grasp turned half a turn about z).
+          if (Rg.col(0).dot(preferred_x) < 0) best.T_world_tcp.linear() = halfTurnAboutApproach(Rg);
+          best.type = GraspType::kCloud;
+          best.approach = -Rg.col(2);
+          best.yaw = yawOf(best.T_world_tcp.linear());
+          best.clearance = best_clear;
+          best.closure_margin = best_margin;
+          const double tilt = std::acos(std::clamp(Rg.col(2).dot(down), -1.0, 1.0));
+          best.score = o.contact_weight * best_contacts / 18.0 + o.closure_weight * best_margin + o.points_weight * std::min(1.0, best_points / 100.0) -
+                       o.tilt_weight * tilt + o.clearance_weight * std::max(0.0, best_clear);
+          found.push_back(best);
         }
-        if (!have) {
-          if (why == kOnCell) ++res.on_cell;
-          else if (why == kFingers) ++res.fingers_blocked;
-          else if (why == kHand) ++res.hand_blocked;
-          else if (why == kWide) ++res.too_wide;
-          else if (why == kLow) ++res.too_low;
-          else if (why == kSparse) ++res.sparse;
-          else ++res.not_antipodal;
-          continue;
-        }
-        // The fingers' volume at the grasp, out of the space the camera could not see.
-        const Mat3& Rg = best.T_world_tcp.linear();
-        const Vec3 tcp = best.T_world_tcp.translation();
-        const double open = best.width / 2 + o.finger_margin;
-        if (!o.boxes.empty() && fingersInNeighbour(best, open)) {
-          ++res.neighbour;
-          continue;
-        }
-        int total = 0, hidden = 0;
-        for (int side = -1; side <= 1; side += 2)
-          for (double fx : {-o.pad_half_width, 0.0, o.pad_half_width})
-            for (const double fz : pad_zs)
-              for (double fy : {open, open + o.finger_thickness}) {
-                ++total;
-                hidden += unseen(tcp + Rg * Vec3(fx, side * fy, fz));
-              }
-        if (hidden > o.max_unknown * total) {
-          ++res.unseen;
-          continue;
-        }
-        // The TCP's x nearer the preferred direction (the same grasp turned half a turn about z).
-        if (Rg.col(0).dot(preferred_x) < 0) best.T_world_tcp.linear() = halfTurnAboutApproach(Rg);
-        best.type = GraspType::kCloud;
-        best.approach = -Rg.col(2);
-        best.yaw = yawOf(best.T_world_tcp.linear());
-        best.clearance = best_clear;
-        best.closure_margin = best_margin;
-        const double tilt = std::acos(std::clamp(Rg.col(2).dot(down), -1.0, 1.0));
-        best.score = o.contact_weight * best_contacts / 18.0 + o.closure_weight * best_margin + o.points_weight * std::min(1.0, best_points / 100.0) -
-                     o.tilt_weight * tilt + o.clearance_weight * std::max(0.0, best_clear);
-        found.push_back(best);
       }
     }
-  }
-  // Best first; a candidate near a better one (close and hardly turned from it) is the same grasp.
-  std::stable_sort(found.begin(), found.end(), [](const GraspCandidate& a, const GraspCandidate& b) { return a.score > b.score; });
-  for (const GraspCandidate& g : found) {
-    bool same = false;
-    for (const GraspCandidate& k : res.candidates) {
-      const double dist = (g.T_world_tcp.translation() - k.T_world_tcp.translation()).norm();
-      const Mat3 D = g.T_world_tcp.linear().transpose() * k.T_world_tcp.linear();
-      const double angle = std::acos(std::clamp((D.trace() - 1) / 2, -1.0, 1.0));
-      // The same hand turned half a turn about its approach is the same grasp.
-      const double flipped = std::acos(std::clamp((D.trace() - 1) / 2 - (D(0, 0) + D(1, 1)) , -1.0, 1.0));
-      if (dist < o.nms_distance && std::min(angle, flipped) < o.nms_angle) {
-        same = true;
-        break;
+    // Best first; a candidate near a better one (close and hardly turned from it) is the same grasp.
+    std::stable_sort(found.begin(), found.end(), [](const GraspCandidate& a, const GraspCandidate& b) { return a.score > b.score; });
+    for (const GraspCandidate& g : found) {
+      bool same = false;
+      for (const GraspCandidate& k : res.candidates) {
+        const double dist = (g.T_world_tcp.translation() - k.T_world_tcp.translation()).norm();
+        const Mat3 D = g.T_world_tcp.linear().transpose() * k.T_world_tcp.linear();
+        const double angle = std::acos(std::clamp((D.trace() - 1) / 2, -1.0, 1.0));
+        // The same hand turned half a turn about its approach is the same grasp.
+        const double flipped = std::acos(std::clamp((D.trace() - 1) / 2 - (D(0, 0) + D(1, 1)) , -1.0, 1.0));
+        if (dist < o.nms_distance && std::min(angle, flipped) < o.nms_angle) {
+          same = true;
+          break;
+        }
       }
+      if (!same) res.candidates.push_back(g);
+      if (static_cast<int>(res.candidates.size()) >= o.max_candidates) break;
     }
-    if (!same) res.candidates.push_back(g);
-    if (static_cast<int>(res.candidates.size()) >= o.max_candidates) break;
-  }
+  };
+  search(false);
+  if (res.candidates.empty() && o.snap_down > 0) search(true);
   res.seconds.hands = since(t0);
   return res;
 }

@@ -65,11 +65,16 @@ struct CloudGraspOptions {
   int approach_steps = 8;           ///< turns about the frame's axis from -90 degrees in steps of 180 / approach_steps (8: to +67.5)
   double level_turn = 0.17;         ///< [rad] a hand whose closing axis is more than this from the level direction across its approach is tried along that too
   double max_tilt = 0.9;            ///< [rad] the approach from straight down
+  /// [rad] A view that gives no candidate is searched again (more seeds from the stream), each
+  /// approach within this of straight down taken straight down with its closing axis level, and a
+  /// hand whose fingertips reach the floor kept with `floor_contacts` cells (0: no second look).
+  double snap_down = 0.0;
   double depth_step = 0.004;        ///< [m] the push along the approach
   double min_bite = 0.012;          ///< [m] the fingertips at least this far past the seed (GPD's init_bite: 0.01)
   double finger_margin = 0.012;     ///< [m] each finger opens this far beyond the points between them
   double cone = 0.35;               ///< [rad] a contact face's normal within this of the closing axis (GPD: 20 degrees)
   int min_contacts = 4;             ///< cells of the pad (of 3 x 6) the object fills, on each side
+  int floor_contacts = 4;           ///< ... or, in the second look (snap_down), this many where the fingertips are at the floor
   int min_points = 20;              ///< points between the pads
   double unknown_margin = 0.006;    ///< [m] a finger point this far behind the observed surface is in unseen space
   double max_unknown = 0.3;         ///< share of the fingers' points allowed in unseen space

@@ -207,6 +207,8 @@ CloudGraspOptions cloudGraspOptionsFor(const GripperSpec& gripper, const TaskOpt
   co.padding = task.cloudGraspPadding();
   co.seeds = task.cloud_seeds;
   co.min_bite = task.cloud_bite;
+  co.floor_contacts = task.cloud_floor_contacts;
+  co.snap_down = task.cloud_snap_down;
   co.cone = std::min(task.cloud_cone, std::atan(gripper.pad_friction));  // no wider than the pads' own cone
   return co;
 }

@@ -49,6 +49,14 @@ void TaskOptions::declare(ConfigArchive& a) {
           "cloud grasps: the faces the pads meet (fitted to the outermost points between them) must face the closing "
           "axis within this, the friction cone the detector assumes (0.35: GPD's 20 degrees, a friction coefficient of "
           "0.36; at most atan of the gripper's pad friction)");
+  a.value("cloud_snap_down", cloud_snap_down, {0.0, 0.5}, "rad",
+          "cloud grasps: a view that gives no candidate is looked at again (as many seeds more), each approach within "
+          "this of straight down taken straight down with its closing axis level (a low object's noisy top tilts its "
+          "hands, and a tilted hand's far finger dips to the floor); 0: no second look");
+  a.value("cloud_floor_contacts", cloud_floor_contacts, {1, 4}, "",
+          "cloud grasps: a contact is the object filling 4 of each pad's 3 x 6 cells (across it, along it; the "
+          "outermost points between the pads, per cell); in the second look (cloud_snap_down), this many where the "
+          "fingertips are down at the floor and no deeper hand holds (an object lower than two rows of the pads)");
   a.value("max_candidates", max_grasp_candidates, {1, 64}, "", "grasp candidates tried per object before the pick fails");
   a.value("finger_margin", finger_margin, {0.002, 0.04}, "m",
           "fingers open this much wider than the object's half width before the approach");

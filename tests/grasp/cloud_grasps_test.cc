@@ -287,6 +287,49 @@ TEST(CloudGrasps, ABarLying16MmTallIsReachedWithTheClutterExperimentsBiteAndPadd
   }
 }
 
+// Lower still: a bar 14 mm tall. Its top's normals are noisy, so the hands built on it lean a
+// little, and the far finger of a leaning hand dips to the floor: none is kept. A view with no
+// candidate is looked at again (snap_down): hands near straight down taken straight down, and a
+// contact of 3 cells where the fingertips are at the floor. That look finds the bar, closing across
+// it with the fingertips above the floor; a view that has candidates is never looked at again.
+TEST(CloudGrasps, AViewWithNoGraspIsLookedAtAgainStraightDown) {
+  auto detect = [&](const LoneBox& lone, double snap, int floor_contacts) {
+    TaskOptions task;
+    task.cloud_bite = 0.008, task.cloud_padding = 0.002, task.cloud_cone = 0.6, task.finger_margin = 0.006;
+    task.cloud_snap_down = snap, task.cloud_floor_contacts = floor_contacts;
+    PerceptionOptions perception;
+    perception.T_world_crop = lone.T_bin, perception.crop_half = lone.half, perception.crop_height = 0.15;
+    const CloudGraspOptions o = cloudGraspOptionsFor(panda().spec().gripper, task, perception);
+    Rng g = Rng::stream(5, 0, Purpose::kGrasp);
+    return std::make_pair(o, cloudGrasps(lone.frame, o, Vec3::UnitX(), g));
+  };
+  const LoneBox low = loneBox(Vec3(0.07, 0.022, 0.014), 5);
+  ASSERT_FALSE(low.object.name.empty());
+  const double floor_z = low.T_bin.translation().z();
+  const auto [o_first, first] = detect(low, 0.0, 4);
+  EXPECT_TRUE(first.candidates.empty());
+  const auto [o, again] = detect(low, 0.25, 3);
+  ASSERT_FALSE(again.candidates.empty()) << "too low " << again.too_low << ", blocked " << again.hand_blocked << " / " << again.fingers_blocked;
+  EXPECT_EQ(again.seeds, 2 * first.seeds) << "a second look, its own seeds";
+  int straight_down = 0;
+  for (const GraspCandidate& g : again.candidates) {
+    EXPECT_EQ(objectBetweenPads(g, {low.object}, o), 0);
+    EXPECT_LT(g.width, 0.03) << "across the bar";
+    straight_down += g.T_world_tcp.linear().col(2).dot(-Vec3::UnitZ()) > 1 - 1e-12;
+    for (int side = -1; side <= 1; side += 2)
+      EXPECT_GT((g.T_world_tcp * Vec3(0, side * (g.width / 2 + o.finger_margin), o.pad_z_max)).z(), floor_z + o.floor_clearance - 1e-9);
+  }
+  EXPECT_GT(straight_down, 0);
+  // A bar 30 mm tall has candidates at the first look: the same with the second look on.
+  const LoneBox tall = loneBox(Vec3(0.07, 0.022, 0.03), 5);
+  const auto plain = detect(tall, 0.0, 4).second, with = detect(tall, 0.25, 3).second;
+  ASSERT_FALSE(plain.candidates.empty());
+  ASSERT_EQ(with.candidates.size(), plain.candidates.size());
+  EXPECT_EQ(with.seeds, plain.seeds);
+  for (size_t k = 0; k < plain.candidates.size(); ++k)
+    EXPECT_TRUE(with.candidates[k].T_world_tcp.isApprox(plain.candidates[k].T_world_tcp, 0)) << k;
+}
+
 // What the planner will check the hand against (CloudGraspOptions::boxes): a hand whose open
 // fingers enter a box that is not of the object between its pads is dropped, as the planner would
 // refuse it; the object's own boxes drop nothing. A bar alone in the bin, and a box put where the
