@@ -49,10 +49,10 @@ std::string calibrationScene(const Experiment& e, const CharucoBoardSpec& board,
   };
   std::set<std::string> has_dir;
   for (tinyxml2::XMLElement* c = root->FirstChildElement("compiler"); c; c = c->NextSiblingElement("compiler"))
-    for (const char* dir : {"meshdir", "texturedir", "assetdir"})
-      if (c->Attribute(dir)) {
-        has_dir.insert(dir);
-        absolute(c, dir);
+    for (const char* folder : {"meshdir", "texturedir", "assetdir"})
+      if (c->Attribute(folder)) {
+        has_dir.insert(folder);
+        absolute(c, folder);
       }
   std::function<void(tinyxml2::XMLElement*)> files = [&](tinyxml2::XMLElement* x) {
     for (tinyxml2::XMLElement* c = x->FirstChildElement(); c; c = c->NextSiblingElement()) {
