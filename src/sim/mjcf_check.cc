@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "sim/scene_compose.h"
 
 namespace mm {
 namespace {
@@ -78,9 +79,7 @@ void checkElement(const tinyxml2::XMLElement* e, const std::string& file, int de
     if (!f) throw InputError(where, "<include> needs a file attribute");
     const auto inc = std::filesystem::path(file).parent_path() / f;
     // A URDF file is a static cell part: the scene's composition reads and checks it.
-    std::string ext = inc.extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    if (ext != ".urdf") checkFile(inc.string(), depth + 1);
+    if (!isUrdfPart(inc.string())) checkFile(inc.string(), depth + 1);
   }
   for (const auto* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) checkElement(c, file, depth);
 }

@@ -74,12 +74,6 @@ std::string facesText(const std::vector<std::array<int, 3>>& faces) {
   return out;
 }
 
-bool isUrdf(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return ext == ".urdf";
-}
-
 // A convex hull that is a box (six faces in three pairs of opposite, mutually orthogonal normals):
 // its pose (the axes right-handed) and half sizes. False for any other hull.
 bool hullBox(const ConvexHull& hull, Pose& T, Vec3& half) {
@@ -210,7 +204,7 @@ void expandIncludes(XMLDocument& doc, XMLElement* parent, const std::string& fil
       const char* f = e->Attribute("file");
       if (!f) throw InputError(at(file, e), "<include> needs a 'file' attribute");
       const std::string path = (std::filesystem::path(file).parent_path() / f).lexically_normal().string();
-      if (isUrdf(path)) {
+      if (isUrdfPart(path)) {
         expandUrdfPart(doc, e, path, at(file, e));
         e = next;
         continue;
@@ -246,7 +240,7 @@ void collectSources(const XMLElement* e, const std::string& file, int depth, std
     if (std::strcmp(c->Name(), "include") == 0 && c->Attribute("file")) {
       const std::string path = (std::filesystem::path(file).parent_path() / c->Attribute("file")).lexically_normal().string();
       out.push_back(path);
-      if (isUrdf(path)) {
+      if (isUrdfPart(path)) {
         const UrdfObject part = loadUrdfObject(path);
         out.insert(out.end(), part.files.begin(), part.files.end());
       } else {
@@ -260,6 +254,12 @@ void collectSources(const XMLElement* e, const std::string& file, int depth, std
 }
 
 }  // namespace
+
+bool isUrdfPart(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext == ".urdf";
+}
 
 std::vector<std::string> sceneSources(const std::string& scene_xml) {
   XMLDocument scene;

@@ -26,6 +26,10 @@
 
 namespace mm {
 
+/// Whether an <include>d file is a URDF static cell part (its extension .urdf, any case), which
+/// composeScene expands, rather than MJCF.
+bool isUrdfPart(const std::string& path);
+
 /// The files a scene reads besides itself, for a campaign's fingerprint: each file it <include>s
 /// (recursively), and each URDF cell part's meshes, in the order met. Throws InputError as
 /// composeScene would for a file that cannot be read.
