@@ -321,8 +321,8 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   std::vector<std::pair<double, bool>> ys;
   // The hands of `n_seeds` seeds, ranked into res.candidates; the second look of a view
   // that gave none (snap_down, floor_contacts): `second_look`.
+  std::vector<GraspCandidate> found;  // every hand kept, of both looks
   auto search = [&](bool second_look) {
-    std::vector<GraspCandidate> found;
     const int n_seeds = std::min<int>(o.seeds, static_cast<int>(seedable.size()));
     res.seeds += n_seeds;
     for (int s = 0; s < n_seeds; ++s) {
@@ -647,7 +647,11 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
         }
       }
     }
-    // Best first; a candidate near a better one (close and hardly turned from it) is the same grasp.
+  };
+  // The hands kept so far, ranked into res.candidates: best first; a candidate near a better one
+  // (close and hardly turned from it) is the same grasp.
+  auto rank = [&]() {
+    res.candidates.clear();
     std::stable_sort(found.begin(), found.end(), [](const GraspCandidate& a, const GraspCandidate& b) { return a.score > b.score; });
     for (const GraspCandidate& g : found) {
       bool same = false;
@@ -667,7 +671,12 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
     }
   };
   search(false);
-  if (res.candidates.empty() && o.snap_down > 0) search(true);
+  rank();
+  // The second look: a view with no candidate, or whose best scores below weak_score.
+  if (o.snap_down > 0 && (res.candidates.empty() || res.candidates.front().score < o.weak_score)) {
+    search(true);
+    rank();
+  }
   res.seconds.hands = since(t0);
   return res;
 }

@@ -69,6 +69,9 @@ struct CloudGraspOptions {
   /// approach within this of straight down taken straight down with its closing axis level, and a
   /// hand whose fingertips reach the floor kept with `floor_contacts` cells (0: no second look).
   double snap_down = 0.0;
+  /// A view whose best candidate scores below this is looked at again too (with snap_down), and the
+  /// two looks' candidates ranked together (0: only a view with none).
+  double weak_score = 0.0;
   double depth_step = 0.004;        ///< [m] the push along the approach
   double min_bite = 0.012;          ///< [m] the fingertips at least this far past the seed (GPD's init_bite: 0.01)
   double finger_margin = 0.012;     ///< [m] each finger opens this far beyond the points between them

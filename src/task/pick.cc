@@ -209,6 +209,7 @@ CloudGraspOptions cloudGraspOptionsFor(const GripperSpec& gripper, const TaskOpt
   co.min_bite = task.cloud_bite;
   co.floor_contacts = task.cloud_floor_contacts;
   co.snap_down = task.cloud_snap_down;
+  co.weak_score = task.cloud_weak_score;
   co.cone = std::min(task.cloud_cone, std::atan(gripper.pad_friction));  // no wider than the pads' own cone
   return co;
 }

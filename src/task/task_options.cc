@@ -53,6 +53,11 @@ void TaskOptions::declare(ConfigArchive& a) {
           "cloud grasps: a view that gives no candidate is looked at again (as many seeds more), each approach within "
           "this of straight down taken straight down with its closing axis level (a low object's noisy top tilts its "
           "hands, and a tilted hand's far finger dips to the floor); 0: no second look");
+  a.value("cloud_weak_score", cloud_weak_score, {0.0, 3.0}, "",
+          "cloud grasps: a view whose best candidate scores below this is looked at again as one with none "
+          "(cloud_snap_down), and the two looks' candidates ranked together; 0: only a view with none. A score is the "
+          "smaller pad's cells filled / 18 + the force-closure margin in rad + 0.5 x min(1, points between the pads / 100) - "
+          "0.5 x the tilt from straight down in rad + 10 x the clearance beside the fingers (at most 2 cm)");
   a.value("cloud_floor_contacts", cloud_floor_contacts, {1, 4}, "",
           "cloud grasps: a contact is the object filling 4 of each pad's 3 x 6 cells (across it, along it; the "
           "outermost points between the pads, per cell); in the second look (cloud_snap_down), this many where the "
