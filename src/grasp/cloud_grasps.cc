@@ -319,8 +319,8 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   std::vector<Local> obstacles, pads, unsorted_pads;
   std::vector<PadKey> pad_keys;
   std::vector<std::pair<double, bool>> ys;
-  // The hands of `n_seeds` seeds, ranked into res.candidates; the second look of a view
-  // that gave none (snap_down, floor_contacts): `second_look`.
+  // The hands of `n_seeds` seeds, each kept one added to `found`; the second look of a view that
+  // gave none or only weak ones (snap_down, floor_contacts, weak_score): `second_look`.
   std::vector<GraspCandidate> found;  // every hand kept, of both looks
   auto search = [&](bool second_look) {
     const int n_seeds = std::min<int>(o.seeds, static_cast<int>(seedable.size()));

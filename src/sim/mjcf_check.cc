@@ -2,8 +2,6 @@
 
 #include <tinyxml2.h>
 
-#include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>

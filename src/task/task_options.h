@@ -65,7 +65,7 @@ struct TaskOptions {
   double cloud_bite = 0.012;             ///< [m] cloud grasps: the fingertips at least this far past the seed (GPD's init_bite: 0.01)
   double cloud_cone = 0.35;              ///< [rad] cloud grasps: a contact face's normal within this of the closing axis (GPD's 20 degrees)
   double cloud_snap_down = 0.0;          ///< [rad] cloud grasps: a view with no candidate is looked at again, approaches this near straight down straight down (0: never)
-  double cloud_weak_score = 0.0;          ///< cloud grasps: a view whose best candidate scores below this is looked at again too (with cloud_snap_down; 0: never)
+  double cloud_weak_score = 0.0;         ///< cloud grasps: a view whose best candidate scores below this is looked at again too (with cloud_snap_down; 0: never)
   int cloud_floor_contacts = 4;          ///< cloud grasps, the second look: cells of each pad (of 3 x 6) the object fills where the fingertips are at the floor
   double tight_margin = 0.0;             ///< [m] finger margin and approach padding when nothing fits otherwise (0: never; clutter: 0.004)
   bool weld = false;                     ///< weld-on-grasp (attach plugin) instead of friction
