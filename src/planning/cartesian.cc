@@ -64,6 +64,7 @@ JointTrajectory cartesianTrajectory(const RobotModel& robot, const CartesianPath
   double v = o.speed, a = o.acceleration, j = o.jerk;
   JointTrajectory t;
   t.dt = dt;
+  double slowed_by = 1.0, was = 0.0;  // the last slow-down and the worst ratio before it
   for (int attempt = 0; attempt < 12; ++attempt) {
     // The shortest double-S from rest to rest over S (jerk ramps, acceleration held, cruise), then
     // the profile of that duration rounded up to whole periods (slightly slower, never faster).
@@ -90,9 +91,16 @@ JointTrajectory cartesianTrajectory(const RobotModel& robot, const CartesianPath
     const LimitReport rep = checkLimits(t, robot, 0.0);
     const double rv = rep.max_velocity_ratio / scale.velocity, ra = rep.max_acceleration_ratio / scale.acceleration;
     if (rep.positions_ok && rv <= 1.0 && ra <= 1.0) return t;
+    // No timing mends a joint out of its range, nor a joint path that jumps (the IK at a joint's
+    // limit or switching branch between samples): there slowing down by k does not divide the
+    // ratios by k, and each try would take k times the samples of the last.
+    const double worst = std::max(rv, std::sqrt(ra));
+    if (!rep.positions_ok || (attempt > 0 && worst > was / std::sqrt(slowed_by))) return {};
     // Slow down by what the worst joint needs (velocity scales with v, acceleration with v^2 and a,
     // jerk with v^3).
-    const double k = std::max(rv, std::sqrt(ra)) * 1.05;
+    const double k = worst * 1.05;
+    slowed_by = k;
+    was = worst;
     v /= k;
     a /= k * k;
     j /= k * k * k;

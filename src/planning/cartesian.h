@@ -42,7 +42,9 @@ CartesianPath planCartesianLine(const RobotModel& robot, CollisionChecker& check
 /// One jerk-limited double-S profile in the TCP's distance along the line (within the TCP speed,
 /// acceleration and jerk limits), sampled every `dt` with IK from the previous sample, so the joint motion is smooth;
 /// then checked against the scaled joint limits and slowed down until it holds. Empty when IK
-/// fails along the way (the path's waypoints already proved the line feasible). It starts at
+/// fails along the way (the path's waypoints already proved the line feasible), when a joint
+/// leaves its range, or when slowing down does not lower the joints' speeds as it should (the
+/// joint path jumps between samples, which no timing mends). It starts at
 /// `q_from` when given (where the previous motion left the arm: the same TCP pose as the path's
 /// start, perhaps elsewhere in a redundant arm's null space), else at the path's first waypoint.
 JointTrajectory cartesianTrajectory(const RobotModel& robot, const CartesianPath& path, const IkFunction& ik,

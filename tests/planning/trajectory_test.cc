@@ -101,6 +101,59 @@ TEST(CartesianTrajectory, StraightLineWithinLimits) {
   EXPECT_LT((r.fk(t.q.col(t.size() - 1)).translation() - goal.translation()).norm(), 1e-6);
 }
 
+// An IK whose joint path jumps halfway along the line (as at a joint's limit or a branch switch):
+// slowing down cannot mend the jump, so the parameterization gives up after one slower try
+// instead of multiplying the samples by the same large factor again and again. (Clutter rounds
+// had a worker sit here for minutes, growing to 0.9 GB.) A joint driven out of its range gives up
+// at once.
+TEST(CartesianTrajectory, GivesUpOnAJointPathThatJumps) {
+  const RobotModel& r = panda();
+  struct Free : CollisionChecker {
+    bool isValid(const VecX&) override { return true; }
+    std::string lastCollision() const override { return ""; }
+  } free;
+  Rng rng(3);
+  auto dls = makeIkSolver("dls", r);
+  const VecX q0 = r.home();
+  Pose goal = r.fk(q0);
+  goal.translation() += Vec3(0.0, 0.0, -0.2);
+  const double z_half = r.fk(q0).translation().z() - 0.1;
+  long calls = 0;
+  double offset = 0.01;
+  const IkFunction ik = [&](const Pose& T, const VecX& seed, VecX& q) {
+    ++calls;
+    IkRequest o;
+    o.target = T;
+    o.seed = seed;
+    o.max_attempts = 1;
+    o.tol_position = 1e-10;
+    o.tol_rotation = 1e-9;
+    const IkResult res = dls->solve(o, rng);
+    if (!res.ok()) return false;
+    q = res.q();
+    if (T.translation().z() < z_half) q[0] += offset;  // past halfway, joint 1 is off by `offset`
+    return true;
+  };
+  CartesianOptions co;
+  const CartesianPath path = planCartesianLine(r, free, q0, goal, ik, co);
+  ASSERT_TRUE(path.ok) << path.reason;
+  const LimitScaling s{0.5, 0.5};
+  calls = 0;
+  EXPECT_TRUE(cartesianTrajectory(r, path, ik, s, co, 0.002).empty());
+  // The first try has about 0.7 s of samples (350), the slower one about 34 times as many; a
+  // third would have 34 times more again (the code before this test took 123,055 calls).
+  EXPECT_GT(calls, 1000);
+  EXPECT_LT(calls, 30000) << "calls " << calls;
+
+  offset = r.upper()[0] - q0[0] + 0.05;  // past halfway, joint 1 is beyond its upper limit
+  calls = 0;
+  EXPECT_TRUE(cartesianTrajectory(r, path, ik, s, co, 0.002).empty());
+  EXPECT_LT(calls, 400) << "calls " << calls;  // one try, about 0.7 s of samples
+
+  offset = 0.0;  // no jump: the same line is parameterized
+  EXPECT_FALSE(cartesianTrajectory(r, path, ik, s, co, 0.002).empty());
+}
+
 }  // namespace
 }  // namespace mm
 
