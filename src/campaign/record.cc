@@ -141,7 +141,7 @@ void TrialRecord::describe(RecordArchive& a) {
       t.field("score", c.score, "", "higher first: wrist turn, clearance, force-closure margin, pad area, torque arm, hand tilt");
       t.field("closure_margin", c.closure_margin, "rad", "atan(pad friction) minus the larger angle between a contact normal and the line between the contacts (> 0: force closure)");
       t.field("contact_area", c.contact_area, "m^2", "pad area the object covers");
-      t.field("torque_arm", c.torque_arm, "m", "centre of mass to the grasp axis");
+      t.field("torque_arm", c.torque_arm, "m", "the object's centre to the grasp axis: its centre of mass for a model's grasp; for one from the points or an external component, the middle of what the camera saw of the object its pads close on (not in its score)");
       t.field("clearance", c.clearance, "m", "open fingertips to the nearest neighbour (capped at 5 cm)");
       t.field("result", c.result, "", "chosen, or why filterGrasps dropped it (force closure, IK, collision, approach, lift)");
       t.field("turned", c.turned, "", "the hand turned half a turn about its approach: a cloud candidate that failed is tried so once more, as the next entry");

@@ -65,7 +65,8 @@ struct CandidatesStage {
 };
 
 // Each candidate of a grasp from points under the perceived object (not yet picked) its pads close
-// on, in the order of each object's first (those near where the last pick failed after the
+// on, with its torque arm to that object's centre (the middle of what the camera saw of it: its
+// columns), in the order of each object's first (those near where the last pick failed after the
 // others); `none` and `several` count those closing on no object and on two or more. Returns how
 // many were kept.
 int underObjects(const TrialContext& ctx, const std::vector<GraspCandidate>& candidates, const CloudGraspOptions& co, PerObject& out,
@@ -76,15 +77,17 @@ int underObjects(const TrialContext& ctx, const std::vector<GraspCandidate>& can
   none = several = 0;
   int kept = 0;
   std::vector<int> slot(known.size(), -1);
-  for (const GraspCandidate& g : candidates) {
+  for (GraspCandidate g : candidates) {
     const int k = objectBetweenPads(g, known, co);
     if (k < 0) {
       ++(k == -1 ? none : several);
       continue;
     }
+    const Vec3 y = g.T_world_tcp.linear().col(1), d = known[k].T_world_object.translation() - g.T_world_tcp.translation();
+    g.torque_arm = (d - d.dot(y) * y).norm();  // recorded; the ranking stays the detector's
     ++kept;
     if (slot[k] < 0) slot[k] = static_cast<int>(out.size()), out.push_back({known[k], {}});
-    out[slot[k]].second.push_back(g);
+    out[slot[k]].second.push_back(std::move(g));
   }
   // After a pick that failed (the hand stopped on contact, the fingers closed on nothing or did
   // not close), the objects within kRetryDistance of where it was to close go last: whatever

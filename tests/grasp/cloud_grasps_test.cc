@@ -516,5 +516,32 @@ TEST(CloudGrasps, ACampaignPicksWithGraspsFromTheCameraPoints) {
   EXPECT_THAT(b.out, ::testing::HasSubstr("expected model, cloud, external or nothing")) << b.out;
 }
 
+// The cloud tree's back-off sets down an object the gripper still holds instead of letting it go
+// over the bin. Packed round 1 (seed 3) with a joint stalled for 2.5 s on the way to the tray: the
+// place fails three times in the round's own retries, the tree backs off holding the object, and
+// (the stall over) sets it down in a slot. Before, it let go: the attempt ended let_go_elsewhere
+// (measured on this round with the tree before the change).
+TEST(CloudGrasps, AnObjectStillHeldAfterBackingOffIsSetDownInASlot) {
+  if (testing_sanitized::kSanitized) GTEST_SKIP() << "a whole camera round; the Release pass runs it";
+  testing_cli::TempDir dir;
+  const std::string out = (dir.path() / "stall").string();
+  const auto r = testing_cli::runMinimanip(
+      "run experiments/clutter_packed.yaml --set seed=3 --only 1 --jobs 1 --set progress=none --set perception.mode=camera "
+      "--set tree=experiments/trees/clutter_removal_cloud.xml --set faults.joint_stall=1 --set faults.stall_time=2.5 --out " + out);
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::ifstream in(out + "/trials.jsonl");
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line));
+  const TrialRecord t = fromJsonLine(line, "trials.jsonl");
+  ASSERT_EQ(t.o.faults.size(), 1u);
+  EXPECT_EQ(t.o.faults[0].stage, "move_preplace");
+  int place_failures = 0;
+  for (const RecordedFailure& f : t.o.failures) place_failures += f.failure.stage == "move_preplace" && f.failure.kind == FailureKind::kTracking;
+  EXPECT_GE(place_failures, 3) << "the round's own place retries all met the stall";
+  ASSERT_FALSE(t.o.grasp_attempts.empty());
+  EXPECT_EQ(t.o.grasp_attempts[0].result, "in_tray") << "the first object, held through the back-off, set down in the tray";
+  for (const GraspAttempt& a : t.o.grasp_attempts) EXPECT_NE(a.result, "let_go_elsewhere");
+}
+
 }  // namespace
 }  // namespace mm
