@@ -15,6 +15,24 @@ const RobotModel& panda() {
   return robot;
 }
 
+// Every configuration is valid: these tests are about timing along a path, not about obstacles.
+struct NoObstacles : CollisionChecker {
+  bool isValid(const VecX&) override { return true; }
+  std::string lastCollision() const override { return ""; }
+};
+
+// One DLS solve from the seed to 1e-10 m and 1e-9 rad, so that the joint path follows the line
+// without IK tolerance showing up as jitter in the finite differences.
+IkResult exactIk(IkSolver& solver, Rng& rng, const Pose& target, const VecX& seed) {
+  IkRequest o;
+  o.target = target;
+  o.seed = seed;
+  o.max_attempts = 1;
+  o.tol_position = 1e-10;
+  o.tol_rotation = 1e-9;
+  return solver.solve(o, rng);
+}
+
 // 200 random multi-waypoint paths (seed 21), several limit scalings: every sample of every
 // trajectory is within the position, velocity and acceleration limits, and it passes through
 // each waypoint at rest.
@@ -61,23 +79,11 @@ TEST(TrapezoidalTrajectory, MinimumTimeForOneJoint) {
 // within the scaled limits, and the TCP stays on the line.
 TEST(CartesianTrajectory, StraightLineWithinLimits) {
   const RobotModel& r = panda();
-  auto checker_free = [] {
-    struct Free : CollisionChecker {
-      bool isValid(const VecX&) override { return true; }
-      std::string lastCollision() const override { return ""; }
-    };
-    return Free();
-  }();
+  NoObstacles checker_free;
   Rng rng(3);
   auto dls = makeIkSolver("dls", r);
   const IkFunction ik = [&](const Pose& T, const VecX& seed, VecX& q) {
-    IkRequest o;
-    o.target = T;
-    o.seed = seed;
-    o.max_attempts = 1;
-    o.tol_position = 1e-10;
-    o.tol_rotation = 1e-9;
-    const IkResult res = dls->solve(o, rng);
+    const IkResult res = exactIk(*dls, rng, T, seed);
     if (res.ok()) q = res.q();
     return res.ok();
   };
@@ -108,10 +114,7 @@ TEST(CartesianTrajectory, StraightLineWithinLimits) {
 // at once.
 TEST(CartesianTrajectory, GivesUpOnAJointPathThatJumps) {
   const RobotModel& r = panda();
-  struct Free : CollisionChecker {
-    bool isValid(const VecX&) override { return true; }
-    std::string lastCollision() const override { return ""; }
-  } free;
+  NoObstacles free;
   Rng rng(3);
   auto dls = makeIkSolver("dls", r);
   const VecX q0 = r.home();
@@ -122,13 +125,7 @@ TEST(CartesianTrajectory, GivesUpOnAJointPathThatJumps) {
   double offset = 0.01;
   const IkFunction ik = [&](const Pose& T, const VecX& seed, VecX& q) {
     ++calls;
-    IkRequest o;
-    o.target = T;
-    o.seed = seed;
-    o.max_attempts = 1;
-    o.tol_position = 1e-10;
-    o.tol_rotation = 1e-9;
-    const IkResult res = dls->solve(o, rng);
+    const IkResult res = exactIk(*dls, rng, T, seed);
     if (!res.ok()) return false;
     q = res.q();
     if (T.translation().z() < z_half) q[0] += offset;  // past halfway, joint 1 is off by `offset`
