@@ -14,6 +14,8 @@
 #include "grasp/cloud_grasps.h"
 #include "perception/camera_perception.h"
 #include "perception/cell_registration.h"
+#include "perception/segmentation.h"
+#include "planning/collision.h"
 #include "render/renderer.h"
 #include "sim/hardware.h"
 #include "sim/sim_world.h"
@@ -235,9 +237,16 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
         // its seeds from their own stream.
         const CloudGraspOptions cgo = cloudGraspOptionsFor(robot.spec().gripper, e.task, cell.perception);
         const Vec3 preferred_x = robot.fk(robot.home()).linear().col(0);
-        double t_cloud_noise = 0, t_cloud = 0, t_hands = 0;
-        size_t cloud_points = 0, cloud_candidates = 0;
+        double t_cloud_noise = 0, t_segment = 0, t_cloud = 0, t_hands = 0;
+        size_t cloud_points = 0, cloud_candidates = 0, cloud_segments = 0;
         int cloud_seeds = 0, cloud_hands = 0;
+        // Objects with no model (camera mode): a trial's view is segmented first, and the segments'
+        // columns (and the patches no segment explains) are the boxes the hands must keep out of.
+        const bool segmented = cell.perception.unknown_objects;
+        SegmentationOptions so;
+        so.T_world_region = cell.perception.T_world_crop;
+        so.region_half = cell.perception.crop_half;
+        so.region_height = cell.perception.crop_height;
         Rng cloud_noise(2);  // its own draws: the known-object line's stay as they were
         Rng rng(1);
         CameraPerceptionOptions co;
@@ -271,8 +280,29 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
           const auto t_g = Clock::now();
           applyDepthNoise(g, e.perception.noise, cloud_noise);
           t_cloud_noise += secs(t_g, Clock::now());
+          CloudGraspOptions view_cgo = cgo;
+          if (segmented) {
+            // A segment's columns (its convex pieces) as the planner's boxes, as a trial hands them.
+            auto columns = [](const ObjectState& ob, int owner, std::vector<OwnedBox>& boxes) {
+              for (const ConvexPiece& piece : *ob.pieces) {
+                const PieceBox pb = pieceBox(piece);
+                boxes.push_back({ob.T_world_object * pb.T_object_box, pb.half, owner});
+              }
+            };
+            const auto t_s = Clock::now();
+            const Segmentation seg = segmentDepth(g, so);
+            for (const Segment& sg : seg.segments) {
+              const int owner = static_cast<int>(view_cgo.objects.size());
+              view_cgo.objects.push_back(segmentObject(sg, so.T_world_region));
+              columns(view_cgo.objects.back(), owner, view_cgo.boxes);
+            }
+            for (const Segment& sg : seg.small)
+              columns(segmentObject(sg, so.T_world_region), -1, view_cgo.boxes);
+            t_segment += secs(t_s, Clock::now());
+            cloud_segments = seg.segments.size();
+          }
           Rng grasp_rng = Rng::stream(e.seed, static_cast<uint64_t>(k), Purpose::kGrasp);
-          const CloudGraspResult cg = cloudGrasps(g, cgo, preferred_x, grasp_rng);
+          const CloudGraspResult cg = cloudGrasps(g, view_cgo, preferred_x, grasp_rng);
           t_cloud += cg.seconds.cloud, t_hands += cg.seconds.hands;
           cloud_points = cg.cloud.points.size(), cloud_candidates = cg.candidates.size(), cloud_seeds = cg.seeds, cloud_hands = cg.hands;
         }
@@ -286,9 +316,11 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
           << 1e3 * t.unexplained / n << " + grasp candidates " << 1e3 * t_grasps / n << " ms (" << found << " objects found, " << candidates
           << " candidates)\n";
         o << "  model-free grasps, " << pcam.width << "x" << pcam.height << " depth: depth image in, ranked grasp candidates out "
-          << 1e3 * (t_cloud_noise + t_cloud + t_hands) / n << " ms = sensor noise " << 1e3 * t_cloud_noise / n << " + cloud and normals "
-          << 1e3 * t_cloud / n << " + hands " << 1e3 * t_hands / n << " ms (" << cloud_points << " points, " << cloud_seeds << " seeds, "
-          << cloud_hands << " hands, " << cloud_candidates << " candidates)\n";
+          << 1e3 * (t_cloud_noise + t_segment + t_cloud + t_hands) / n << " ms = sensor noise " << 1e3 * t_cloud_noise / n;
+        if (segmented) o << " + segmentation " << 1e3 * t_segment / n;
+        o << " + cloud and normals " << 1e3 * t_cloud / n << " + hands " << 1e3 * t_hands / n << " ms (";
+        if (segmented) o << cloud_segments << " segments, ";
+        o << cloud_points << " points, " << cloud_seeds << " seeds, " << cloud_hands << " hands, " << cloud_candidates << " candidates)\n";
       }
     }
   }
