@@ -100,6 +100,49 @@ struct PadKey {
   uint32_t at;
 };
 
+// Each object as the parts a line across the pads is tested against: a mesh object's convex
+// pieces one by one (each an object of one piece), else the object itself.
+std::vector<std::vector<ObjectState>> partsOf(const std::vector<ObjectState>& objects) {
+  std::vector<std::vector<ObjectState>> out;
+  out.reserve(objects.size());
+  for (const ObjectState& ob : objects) {
+    std::vector<ObjectState> parts;
+    if (ob.shape == ObjectShape::kMesh && ob.pieces)
+      for (const ConvexPiece& piece : *ob.pieces) {
+        ObjectState one = ob;
+        one.pieces = std::make_shared<const std::vector<ConvexPiece>>(std::vector<ConvexPiece>{piece});
+        parts.push_back(std::move(one));
+      }
+    else
+      parts.push_back(ob);
+    out.push_back(std::move(parts));
+  }
+  return out;
+}
+
+// objectBetweenPads over the objects' parts (partsOf).
+int objectBetweenPadsOf(const GraspCandidate& g, const std::vector<std::vector<ObjectState>>& objects, const CloudGraspOptions& o) {
+  const Mat3& R = g.T_world_tcp.linear();
+  const double open = g.width / 2 + o.finger_margin;
+  int found = -1;
+  for (size_t k = 0; k < objects.size(); ++k) {
+    bool between = false;
+    for (double fz = o.pad_z_min + 0.002; fz <= o.pad_z_max - 0.002 && !between; fz += 0.004)
+      for (double fx : {-0.8 * o.pad_half_width, 0.0, 0.8 * o.pad_half_width}) {
+        const Vec3 p = g.T_world_tcp * Vec3(fx, 0, fz);
+        for (const ObjectState& part : objects[k]) {
+          double t1, t2;
+          Vec3 n1, n2;
+          if (lineThroughObject(part, p, R.col(1), t1, t2, n1, n2) && t2 > -open && t1 < open) between = true;
+        }
+      }
+    if (!between) continue;
+    if (found >= 0) return -2;
+    found = static_cast<int>(k);
+  }
+  return found;
+}
+
 }  // namespace
 
 CloudGraspOptions cloudGraspOptionsFor(const GraspOptions& hand) {
@@ -265,6 +308,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   // pads. Each finger's volume over that stretch is one box, tested exactly against each box
   // nearby. Which object is between the pads is asked only when a finger is in some object's box.
   constexpr double kBackUp = 0.06;  // [m]
+  const std::vector<std::vector<ObjectState>> object_parts = partsOf(o.objects);  // once a view, not once a hand
   auto fingersInNeighbour = [&](const GraspCandidate& g, double open) {
     const Mat3& Rg = g.T_world_tcp.linear();
     const Vec3 tcp = g.T_world_tcp.translation();
@@ -286,7 +330,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
       owners.push_back(b.owner);
     }
     if (owners.empty()) return false;
-    const int target = objectBetweenPads(g, o.objects, o);
+    const int target = objectBetweenPadsOf(g, object_parts, o);
     if (target < 0) return false;  // on none or on two: the caller's assignment drops it
     return std::any_of(owners.begin(), owners.end(), [&](int k) { return k != target; });
   };
@@ -682,35 +726,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
 }
 
 int objectBetweenPads(const GraspCandidate& g, const std::vector<ObjectState>& objects, const CloudGraspOptions& o) {
-  const Mat3& R = g.T_world_tcp.linear();
-  const double open = g.width / 2 + o.finger_margin;
-  int found = -1;
-  for (size_t k = 0; k < objects.size(); ++k) {
-    const ObjectState& ob = objects[k];
-    std::vector<ObjectState> parts;
-    if (ob.shape == ObjectShape::kMesh && ob.pieces)
-      for (const ConvexPiece& piece : *ob.pieces) {
-        ObjectState one = ob;
-        one.pieces = std::make_shared<const std::vector<ConvexPiece>>(std::vector<ConvexPiece>{piece});
-        parts.push_back(std::move(one));
-      }
-    else
-      parts.push_back(ob);
-    bool between = false;
-    for (double fz = o.pad_z_min + 0.002; fz <= o.pad_z_max - 0.002 && !between; fz += 0.004)
-      for (double fx : {-0.8 * o.pad_half_width, 0.0, 0.8 * o.pad_half_width}) {
-        const Vec3 p = g.T_world_tcp * Vec3(fx, 0, fz);
-        for (const ObjectState& part : parts) {
-          double t1, t2;
-          Vec3 n1, n2;
-          if (lineThroughObject(part, p, R.col(1), t1, t2, n1, n2) && t2 > -open && t1 < open) between = true;
-        }
-      }
-    if (!between) continue;
-    if (found >= 0) return -2;
-    found = static_cast<int>(k);
-  }
-  return found;
+  return objectBetweenPadsOf(g, partsOf(objects), o);
 }
 
 }  // namespace mm
