@@ -28,6 +28,16 @@ struct CameraModel {
   Vec3 unproject(double u, double v, double z) const;
 };
 
+/// A rectangle of pixels, corners included: columns u0..u1, rows v0..v1 (empty if u1 < u0).
+struct PixelRect {
+  int u0 = 0, v0 = 0, u1 = -1, v1 = -1;
+};
+
+/// The pixels through which `cam` can see the box [lo, hi] of the frame T_world_box: the bounding
+/// rectangle of its corners' projections, a pixel wider, within the image (the whole image if a
+/// corner is not in front of the camera). A point of the box projects inside it.
+PixelRect boxPixels(const CameraModel& cam, const Pose& T_world_box, const Vec3& lo, const Vec3& hi);
+
 /// One rendered view; the vectors that were not asked for stay empty.
 struct Frame {
   CameraModel camera;

@@ -71,4 +71,11 @@ double Rng::normal() {
   return r * std::cos(2.0 * M_PI * u2);
 }
 
+void Rng::normalsAndUniforms(double* normals, double* uniforms, size_t n) {
+  for (size_t i = 0; i < n; ++i) {
+    normals[i] = normal();
+    uniforms[i] = uniform();
+  }
+}
+
 }  // namespace mm

@@ -3,6 +3,7 @@
 // The generator and the distributions are our own (splitmix64 + xoshiro256**), so the same seed
 // gives the same numbers with any standard library.
 #pragma once
+#include <cstddef>
 #include <cstdint>
 #include <string_view>
 
@@ -34,6 +35,9 @@ class Rng {
   uint64_t below(uint64_t n);
   /// Standard normal (Box–Muller).
   double normal();
+  /// n draws of normal() then uniform() in turn, into normals[i] and uniforms[i]: the same numbers
+  /// as n such pairs of calls, in one call (a depth image's noise draws a pair per pixel).
+  void normalsAndUniforms(double* normals, double* uniforms, size_t n);
   double normal(double mean, double std) { return mean + std * normal(); }
   /// A 32-bit seed for a library that takes one (OMPL).
   uint32_t seed32() { return static_cast<uint32_t>(next() >> 32) | 1u; }

@@ -725,11 +725,14 @@ void applyDepthNoise(Frame& f, const DepthNoise& noise, Rng& rng) {
   if (f.depth.empty()) return;
   const std::vector<float> z0 = f.depth;
   auto at = [&](int u, int v) { return z0[static_cast<size_t>(v) * static_cast<size_t>(w) + static_cast<size_t>(u)]; };
-  for (int v = 0; v < h; ++v)
+  std::vector<double> gauss_row(static_cast<size_t>(w)), drop_row(static_cast<size_t>(w));
+  for (int v = 0; v < h; ++v) {
+    // Every pixel draws the same numbers whatever happens to it, so the streams stay aligned: a
+    // normal then a uniform, a row at a time.
+    rng.normalsAndUniforms(gauss_row.data(), drop_row.data(), gauss_row.size());
     for (int u = 0; u < w; ++u) {
       float& z = f.depth[static_cast<size_t>(v) * static_cast<size_t>(w) + static_cast<size_t>(u)];
-      // Every pixel draws the same numbers whatever happens to it, so the streams stay aligned.
-      const double gauss = rng.normal(), drop = rng.uniform();
+      const double gauss = gauss_row[static_cast<size_t>(u)], drop = drop_row[static_cast<size_t>(u)];
       if (z <= 0) continue;
       if (drop < noise.edge_dropout) {  // the neighbourhood is read only where the pixel would drop at an edge
         float lo = z, hi = z;
@@ -747,6 +750,7 @@ void applyDepthNoise(Frame& f, const DepthNoise& noise, Rng& rng) {
       }
       z = static_cast<float>(z + gauss * noise.k * z * z);
     }
+  }
 }
 
 PoseError poseError(const Pose& est, const Pose& truth, const Vec3& half, ObjectShape shape) {

@@ -57,8 +57,11 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
   // each with its pixel.
   auto cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
   std::vector<int> pixel_of;
-  for (int v = 0; v < cam.height; ++v)
-    for (int u = 0; u < cam.width; ++u) {
+  // Only the pixels through which the region can be seen.
+  const Vec3 inner(o.region_half.x() - o.wall_margin, o.region_half.y() - o.wall_margin, 0);
+  const PixelRect rect = boxPixels(cam, o.T_world_region, Vec3(-inner.x(), -inner.y(), o.floor_margin), Vec3(inner.x(), inner.y(), o.region_height));
+  for (int v = rect.v0; v <= rect.v1; ++v)
+    for (int u = rect.u0; u <= rect.u1; ++u) {
       const int i = v * cam.width + u;
       const float z = frame.depth[static_cast<size_t>(i)];
       if (!(z > 0)) continue;
