@@ -318,7 +318,7 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
         o << "  model-free grasps, " << pcam.width << "x" << pcam.height << " depth: depth image in, ranked grasp candidates out "
           << 1e3 * (t_cloud_noise + t_segment + t_cloud + t_hands) / n << " ms = sensor noise " << 1e3 * t_cloud_noise / n;
         if (segmented) o << " + segmentation " << 1e3 * t_segment / n;
-        o << " + cloud and normals " << 1e3 * t_cloud / n << " + hands " << 1e3 * t_hands / n << " ms (";
+        o << " + cloud " << 1e3 * t_cloud / n << " + hands (with the normals they read) " << 1e3 * t_hands / n << " ms (";
         if (segmented) o << cloud_segments << " segments, ";
         o << cloud_points << " points, " << cloud_seeds << " seeds, " << cloud_hands << " hands, " << cloud_candidates << " candidates)\n";
       }

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <memory>
 #include <tuple>
+#include <utility>
 #include <unordered_map>
 
 #include <Eigen/Eigenvalues>
@@ -85,6 +86,69 @@ struct Block {
   Vec3 half;  // the half sizes of the points' bounding box about `centre`
 };
 
+// Points by the cube of side `size` they fall in (a hand skips the cubes its boxes miss): `ids`
+// (of P's points) sorted by cube, each cube's in their order before, and the cubes as blocks over
+// that order.
+std::vector<Block> blocksOf(const std::vector<Vec3>& P, std::vector<int>& ids, double size) {
+  std::vector<std::pair<int64_t, int>> keyed;
+  keyed.reserve(ids.size());
+  for (size_t k = 0; k < ids.size(); ++k) keyed.push_back({cellKey((P[ids[k]] / size).array().floor().cast<int>()), static_cast<int>(k)});
+  std::sort(keyed.begin(), keyed.end());
+  const std::vector<int> before = ids;
+  for (size_t k = 0; k < keyed.size(); ++k) ids[k] = before[keyed[k].second];
+  std::vector<Block> blocks;
+  for (size_t k = 0; k < keyed.size();) {
+    size_t e = k;
+    Vec3 lo = P[ids[k]], hi = lo;
+    for (; e < keyed.size() && keyed[e].first == keyed[k].first; ++e) lo = lo.cwiseMin(P[ids[e]]), hi = hi.cwiseMax(P[ids[e]]);
+    Block b{(lo + hi) / 2, 0.0, k, e, (hi - lo) / 2};
+    for (size_t j = k; j < e; ++j) b.radius = std::max(b.radius, (P[ids[j]] - b.centre).norm());
+    blocks.push_back(b);
+    k = e;
+  }
+  return blocks;
+}
+
+// The blocks within reach of a seed (centres about it), and in a hand's frame each one's centre
+// and its reach along each axis (its bounding box's, or its ball's if less), all at once in loops
+// over arrays: which of them a box of the hand's frame can meet.
+class NearBlocks {
+ public:
+  void select(const std::vector<Block>& all, const Vec3& seed, double reach) {
+    list_.clear();
+    for (const Block& b : all)
+      if ((b.centre - seed).norm() <= reach + b.radius + 1e-9) list_.push_back({b.centre - seed, b.radius, b.first, b.last, b.half});
+    for (auto* v : {&c_[0], &c_[1], &c_[2], &h_[0], &h_[1], &h_[2], &r_, &m_[0], &m_[1], &m_[2], &s_[0], &s_[1], &s_[2]}) v->resize(list_.size());
+    for (size_t i = 0; i < list_.size(); ++i) {
+      for (int a = 0; a < 3; ++a) c_[a][i] = list_[i].centre[a], h_[a][i] = list_[i].half[a];
+      r_[i] = list_[i].radius;
+    }
+  }
+  /// The blocks in the frame of the hand whose axes are R's columns.
+  void project(const Mat3& R) {
+    for (int a = 0; a < 3; ++a) {
+      const double e0 = R(0, a), e1 = R(1, a), e2 = R(2, a), f0 = std::abs(e0), f1 = std::abs(e1), f2 = std::abs(e2);
+      const double *cx = c_[0].data(), *cy = c_[1].data(), *cz = c_[2].data(), *hx = h_[0].data(), *hy = h_[1].data(), *hz = h_[2].data();
+      double* __restrict m = m_[a].data();
+      double* __restrict s = s_[a].data();
+      for (size_t i = 0; i < list_.size(); ++i) {
+        m[i] = e0 * cx[i] + e1 * cy[i] + e2 * cz[i];
+        s[i] = std::min(r_[i], f0 * hx[i] + f1 * hy[i] + f2 * hz[i]) + 1e-9;
+      }
+    }
+  }
+  /// Whether block i can meet the box [-hx, hx] x [-hy, hy] x [zlo, zhi] of the hand's frame.
+  bool meets(size_t i, double hx, double hy, double zlo, double zhi) const {
+    return std::abs(m_[0][i]) <= hx + s_[0][i] && std::abs(m_[1][i]) <= hy + s_[1][i] && m_[2][i] >= zlo - s_[2][i] && m_[2][i] <= zhi + s_[2][i];
+  }
+  size_t size() const { return list_.size(); }
+  const Block& operator[](size_t i) const { return list_[i]; }
+
+ private:
+  std::vector<Block> list_;
+  std::vector<double> c_[3], h_[3], r_, m_[3], s_[3];
+};
+
 enum CellPart : char { kNotCell = 0, kFloor = 1, kWall = 2 };
 
 // A point in the hand's frame: x across the pads, y the closing direction, z the approach.
@@ -93,47 +157,66 @@ struct Local {
   char part;  // CellPart
 };
 
-// A point between the pads as its sort along the closing axis reads it: its y, and its place in
-// its list shifted left by one over a bit set for a wall's point.
-struct PadKey {
-  double y;
-  uint32_t at;
+// A part a line across the pads is tested against: a mesh object's convex piece (an object of
+// that one piece), else a whole object; and a ball about it that holds all of it.
+struct Part {
+  ObjectState object;
+  Vec3 centre;
+  double radius;
 };
 
-// Each object as the parts a line across the pads is tested against: a mesh object's convex
-// pieces one by one (each an object of one piece), else the object itself.
-std::vector<std::vector<ObjectState>> partsOf(const std::vector<ObjectState>& objects) {
-  std::vector<std::vector<ObjectState>> out;
+// Each object as its parts (partsOf).
+std::vector<std::vector<Part>> partsOf(const std::vector<ObjectState>& objects) {
+  std::vector<std::vector<Part>> out;
   out.reserve(objects.size());
   for (const ObjectState& ob : objects) {
-    std::vector<ObjectState> parts;
+    std::vector<Part> parts;
     if (ob.shape == ObjectShape::kMesh && ob.pieces)
       for (const ConvexPiece& piece : *ob.pieces) {
-        ObjectState one = ob;
-        one.pieces = std::make_shared<const std::vector<ConvexPiece>>(std::vector<ConvexPiece>{piece});
-        parts.push_back(std::move(one));
+        // The piece is the hull of its vertices (its planes are the hull's faces).
+        Vec3 mid = Vec3::Zero();
+        for (const Vec3& v : piece.vertices) mid += v;
+        mid /= static_cast<double>(std::max<size_t>(1, piece.vertices.size()));
+        double radius = 0;
+        for (const Vec3& v : piece.vertices) radius = std::max(radius, (v - mid).norm());
+        Part part{ob, ob.T_world_object * mid, radius};
+        part.object.pieces = std::make_shared<const std::vector<ConvexPiece>>(std::vector<ConvexPiece>{piece});
+        parts.push_back(std::move(part));
       }
-    else
-      parts.push_back(ob);
+    else  // a box, or a cylinder inside the box of its half sizes
+      parts.push_back({ob, ob.T_world_object.translation(), ob.half_size.norm()});
     out.push_back(std::move(parts));
   }
   return out;
 }
 
-// objectBetweenPads over the objects' parts (partsOf).
-int objectBetweenPadsOf(const GraspCandidate& g, const std::vector<std::vector<ObjectState>>& objects, const CloudGraspOptions& o) {
+// objectBetweenPads over the objects' parts (partsOf). The lines across the pads, where they count
+// (within `open` of the axis), lie in one box of the hand's frame: a part whose ball misses it is
+// met by none of them and is not tested.
+int objectBetweenPadsOf(const GraspCandidate& g, const std::vector<std::vector<Part>>& objects, const CloudGraspOptions& o) {
   const Mat3& R = g.T_world_tcp.linear();
+  const Vec3 tcp = g.T_world_tcp.translation();
   const double open = g.width / 2 + o.finger_margin;
+  const double z_lo = o.pad_z_min + 0.002, z_hi = o.pad_z_max - 0.002;
+  const Vec3 probe_centre(0, 0, (z_lo + z_hi) / 2), probe_half(0.8 * o.pad_half_width, open, std::max(0.0, (z_hi - z_lo) / 2));
+  std::vector<const ObjectState*> near;
   int found = -1;
   for (size_t k = 0; k < objects.size(); ++k) {
+    near.clear();
+    for (const Part& part : objects[k]) {
+      const Vec3 q = R.transpose() * (part.centre - tcp) - probe_centre;
+      const Vec3 outside = (q.cwiseAbs() - probe_half).cwiseMax(0.0);
+      if (outside.norm() <= part.radius + 1e-6) near.push_back(&part.object);
+    }
+    if (near.empty()) continue;
     bool between = false;
     for (double fz = o.pad_z_min + 0.002; fz <= o.pad_z_max - 0.002 && !between; fz += 0.004)
       for (double fx : {-0.8 * o.pad_half_width, 0.0, 0.8 * o.pad_half_width}) {
         const Vec3 p = g.T_world_tcp * Vec3(fx, 0, fz);
-        for (const ObjectState& part : objects[k]) {
+        for (const ObjectState* part : near) {
           double t1, t2;
           Vec3 n1, n2;
-          if (lineThroughObject(part, p, R.col(1), t1, t2, n1, n2) && t2 > -open && t1 < open) between = true;
+          if (lineThroughObject(*part, p, R.col(1), t1, t2, n1, n2) && t2 > -open && t1 < open) between = true;
         }
       }
     if (!between) continue;
@@ -142,6 +225,77 @@ int objectBetweenPadsOf(const GraspCandidate& g, const std::vector<std::vector<O
   }
   return found;
 }
+
+// The points of cloudFromDepth, without their normals.
+std::vector<Vec3> voxelPoints(const Frame& frame, const CloudGraspOptions& o) {
+  const CameraModel& cam = frame.camera;
+  const Pose T_region_world = o.T_world_region.inverse();
+  const double hx = o.region_half.x() + o.region_margin, hy = o.region_half.y() + o.region_margin;
+  if (cam.width <= 0 || cam.height <= 0) return {};
+  // One point per voxel: the mean of its pixels' points, in the order of the first pixel.
+  std::unordered_map<int64_t, int> voxel_of;
+  std::vector<Vec3> sum;
+  std::vector<int> count;
+  // Only the pixels whose rays can meet the region.
+  const PixelRect rect = boxPixels(cam, o.T_world_region, Vec3(-hx, -hy, -0.01), Vec3(hx, hy, o.region_height));
+  for (int v = rect.v0; v <= rect.v1; ++v)
+    for (int u = rect.u0; u <= rect.u1; ++u) {
+      const float z = frame.depth[static_cast<size_t>(v) * cam.width + u];
+      if (!(z > 0) || !std::isfinite(z)) continue;
+      const Vec3 p = cam.unproject(u, v, z), q = T_region_world * p;
+      if (std::abs(q.x()) > hx || std::abs(q.y()) > hy || q.z() < -0.01 || q.z() > o.region_height) continue;
+      const int64_t k = cellKey((p / o.voxel).array().floor().cast<int>());
+      const auto [it, fresh] = voxel_of.emplace(k, static_cast<int>(sum.size()));
+      if (fresh) sum.push_back(Vec3::Zero()), count.push_back(0);
+      sum[it->second] += p;
+      ++count[it->second];
+    }
+  std::vector<Vec3> points;
+  points.reserve(sum.size());
+  for (size_t i = 0; i < sum.size(); ++i) points.push_back(sum[i] / count[i]);
+  return points;
+}
+
+// Each point's normal, fitted the first time it is read (a view's detector reads few of the
+// floor's): the least principal axis of its neighbours within `radius`, turned towards `eye`
+// (towards `eye` itself for a point with fewer than 3 neighbours). The same fit whenever read.
+class Normals {
+ public:
+  Normals(const std::vector<Vec3>& points, double radius, const Vec3& eye)
+      : points_(points), grid_(points, radius), radius_(radius), eye_(eye), normals_(points.size()), fitted_(points.size(), 0) {}
+  const Vec3& operator[](size_t i) {
+    if (!fitted_[i]) normals_[i] = fit(i), fitted_[i] = 1;
+    return normals_[i];
+  }
+  /// The normals fitted so far, zero for the points none was asked of (the object is spent).
+  std::vector<Vec3> release() {
+    for (size_t i = 0; i < normals_.size(); ++i)
+      if (!fitted_[i]) normals_[i].setZero();
+    return std::move(normals_);
+  }
+
+ private:
+  Vec3 fit(size_t i) {
+    const Vec3& p = points_[i];
+    grid_.near(p, radius_, nb_);
+    if (nb_.size() < 3) return (eye_ - p).normalized();
+    Vec3 mean = Vec3::Zero();
+    for (int j : nb_) mean += points_[j];
+    mean /= static_cast<double>(nb_.size());
+    Mat3 C = Mat3::Zero();
+    for (int j : nb_) C += (points_[j] - mean) * (points_[j] - mean).transpose();
+    Vec3 n = Eigen::SelfAdjointEigenSolver<Mat3>(C).eigenvectors().col(0);
+    if (n.dot(eye_ - p) < 0) n = -n;
+    return n;
+  }
+  const std::vector<Vec3>& points_;
+  const Grid grid_;
+  const double radius_;
+  const Vec3 eye_;
+  std::vector<Vec3> normals_;
+  std::vector<char> fitted_;
+  std::vector<int> nb_;
+};
 
 }  // namespace
 
@@ -160,81 +314,23 @@ CloudGraspOptions cloudGraspOptionsFor(const GraspOptions& hand) {
 }
 
 PointCloud cloudFromDepth(const Frame& frame, const CloudGraspOptions& o) {
-  const CameraModel& cam = frame.camera;
-  const Pose T_region_world = o.T_world_region.inverse();
-  const double hx = o.region_half.x() + o.region_margin, hy = o.region_half.y() + o.region_margin;
-  if (cam.width <= 0 || cam.height <= 0) return {};
-  // One point per voxel: the mean of its pixels' points, in the order of the first pixel.
-  std::unordered_map<int64_t, int> voxel_of;
-  std::vector<Vec3> sum;
-  std::vector<int> count;
-  // Only the pixels whose rays can meet the region: the bounding rectangle of its corners'
-  // projections, a pixel wider (the whole image if a corner is behind the camera).
-  int u0 = 0, v0 = 0, u1 = cam.width - 1, v1 = cam.height - 1;
-  {
-    double ulo = INFINITY, uhi = -INFINITY, vlo = INFINITY, vhi = -INFINITY;
-    bool behind = false;
-    for (double sx : {-hx, hx})
-      for (double sy : {-hy, hy})
-        for (double sz : {-0.01, o.region_height}) {
-          const Vec3 uvz = cam.project(o.T_world_region * Vec3(sx, sy, sz));
-          behind |= !(uvz.z() > 0);
-          ulo = std::min(ulo, uvz.x()), uhi = std::max(uhi, uvz.x()), vlo = std::min(vlo, uvz.y()), vhi = std::max(vhi, uvz.y());
-        }
-    if (!behind) {
-      u0 = static_cast<int>(std::clamp(std::floor(ulo) - 1, 0.0, cam.width - 1.0));
-      u1 = static_cast<int>(std::clamp(std::ceil(uhi) + 1, 0.0, cam.width - 1.0));
-      v0 = static_cast<int>(std::clamp(std::floor(vlo) - 1, 0.0, cam.height - 1.0));
-      v1 = static_cast<int>(std::clamp(std::ceil(vhi) + 1, 0.0, cam.height - 1.0));
-    }
-  }
-  for (int v = v0; v <= v1; ++v)
-    for (int u = u0; u <= u1; ++u) {
-      const float z = frame.depth[static_cast<size_t>(v) * cam.width + u];
-      if (!(z > 0) || !std::isfinite(z)) continue;
-      const Vec3 p = cam.unproject(u, v, z), q = T_region_world * p;
-      if (std::abs(q.x()) > hx || std::abs(q.y()) > hy || q.z() < -0.01 || q.z() > o.region_height) continue;
-      const int64_t k = cellKey((p / o.voxel).array().floor().cast<int>());
-      const auto [it, fresh] = voxel_of.emplace(k, static_cast<int>(sum.size()));
-      if (fresh) sum.push_back(Vec3::Zero()), count.push_back(0);
-      sum[it->second] += p;
-      ++count[it->second];
-    }
   PointCloud cloud;
-  cloud.points.reserve(sum.size());
-  for (size_t i = 0; i < sum.size(); ++i) cloud.points.push_back(sum[i] / count[i]);
-  // Normals: the least principal axis of the neighbours, turned towards the camera.
-  const Grid grid(cloud.points, o.normal_radius);
-  const Vec3 eye = cam.T_world_camera.translation();
-  std::vector<int> nb;
-  cloud.normals.resize(cloud.points.size(), Vec3::UnitZ());
-  for (size_t i = 0; i < cloud.points.size(); ++i) {
-    grid.near(cloud.points[i], o.normal_radius, nb);
-    if (nb.size() < 3) {
-      cloud.normals[i] = (eye - cloud.points[i]).normalized();
-      continue;
-    }
-    Vec3 mean = Vec3::Zero();
-    for (int j : nb) mean += cloud.points[j];
-    mean /= static_cast<double>(nb.size());
-    Mat3 C = Mat3::Zero();
-    for (int j : nb) C += (cloud.points[j] - mean) * (cloud.points[j] - mean).transpose();
-    Vec3 n = Eigen::SelfAdjointEigenSolver<Mat3>(C).eigenvectors().col(0);
-    if (n.dot(eye - cloud.points[i]) < 0) n = -n;
-    cloud.normals[i] = n;
-  }
+  cloud.points = voxelPoints(frame, o);
+  Normals normals(cloud.points, o.normal_radius, frame.camera.T_world_camera.translation());
+  cloud.normals.reserve(cloud.points.size());
+  for (size_t i = 0; i < cloud.points.size(); ++i) cloud.normals.push_back(normals[i]);
   return cloud;
 }
 
 CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, const Vec3& preferred_x, Rng& rng) {
   CloudGraspResult res;
   auto t0 = Clock::now();
-  res.cloud = cloudFromDepth(frame, o);
+  res.cloud.points = voxelPoints(frame, o);
   res.seconds.cloud = since(t0);
   t0 = Clock::now();
   const std::vector<Vec3>& P = res.cloud.points;
-  const std::vector<Vec3>& N = res.cloud.normals;
   if (P.empty()) return res;
+  Normals N(P, o.normal_radius, frame.camera.T_world_camera.translation());
   const Pose T_region_world = o.T_world_region.inverse();
   const Vec3 down = -o.T_world_region.linear().col(2);
   auto height = [&](const Vec3& p_world) { return (T_region_world * p_world).z(); };  // above the floor
@@ -253,35 +349,28 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
     if (!cell[i]) seedable.push_back(static_cast<int>(i));
     if (!(on_plane[i] && cell[i] == kFloor)) tested.push_back(static_cast<int>(i));
   }
-  // The points the hands test, by blocks of a coarse grid (a hand skips the blocks its box
-  // misses): sorted by block, each block's points in the cloud's order.
-  std::vector<Block> all_blocks;
-  {
-    constexpr double kBlock = 0.04;
-    std::vector<std::pair<int64_t, int>> keyed;
-    keyed.reserve(tested.size());
-    for (const int i : tested) keyed.push_back({cellKey((P[i] / kBlock).array().floor().cast<int>()), i});
-    std::sort(keyed.begin(), keyed.end());
-    for (size_t k = 0; k < keyed.size(); ++k) tested[k] = keyed[k].second;
-    for (size_t k = 0; k < keyed.size();) {
-      size_t e = k;
-      Vec3 lo = P[tested[k]], hi = lo;
-      for (; e < keyed.size() && keyed[e].first == keyed[k].first; ++e) lo = lo.cwiseMin(P[tested[e]]), hi = hi.cwiseMax(P[tested[e]]);
-      Block b{(lo + hi) / 2, 0.0, k, e, (hi - lo) / 2};
-      for (size_t j = k; j < e; ++j) b.radius = std::max(b.radius, (P[tested[j]] - b.centre).norm());
-      all_blocks.push_back(b);
-      k = e;
-    }
+  // The points the hands test, by blocks of 4 cm: sorted by block, each block's points in the
+  // cloud's order (a hand's obstacles are read in this order). And those that can lie between the
+  // pads (all but the floor's), by blocks of 2 cm: the pads' box is thin.
+  const std::vector<Block> all_blocks = blocksOf(P, tested, 0.04);
+  std::vector<int> pad_ids;
+  for (const int i : tested)
+    if (cell[i] != kFloor) pad_ids.push_back(i);
+  const std::vector<Block> pad_blocks = blocksOf(P, pad_ids, 0.02);
+  std::vector<double> pad_x(pad_ids.size()), pad_y(pad_ids.size()), pad_z(pad_ids.size());
+  std::vector<char> pad_cell(pad_ids.size());
+  for (size_t k = 0; k < pad_ids.size(); ++k) {
+    const int i = pad_ids[k];
+    pad_x[k] = P[i].x(), pad_y[k] = P[i].y(), pad_z[k] = P[i].z(), pad_cell[k] = cell[i];
   }
   // The tested points in that order: a coordinate to an array, and what they are of the cell.
   std::vector<double> tx(tested.size()), ty(tested.size()), tz(tested.size());
-  std::vector<unsigned char> t_on_plane(tested.size()), t_floor(tested.size());
+  std::vector<unsigned char> t_on_plane(tested.size());
   std::vector<char> t_cell(tested.size());
   for (size_t k = 0; k < tested.size(); ++k) {
     const int i = tested[k];
     tx[k] = P[i].x(), ty[k] = P[i].y(), tz[k] = P[i].z();
     t_on_plane[k] = on_plane[i];
-    t_floor[k] = cell[i] == kFloor;
     t_cell[k] = cell[i];
   }
   const Grid grid(P, 0.02);
@@ -308,7 +397,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   // pads. Each finger's volume over that stretch is one box, tested exactly against each box
   // nearby. Which object is between the pads is asked only when a finger is in some object's box.
   constexpr double kBackUp = 0.06;  // [m]
-  const std::vector<std::vector<ObjectState>> object_parts = partsOf(o.objects);  // once a view, not once a hand
+  const std::vector<std::vector<Part>> object_parts = partsOf(o.objects);  // once a view, not once a hand
   auto fingersInNeighbour = [&](const GraspCandidate& g, double open) {
     const Mat3& Rg = g.T_world_tcp.linear();
     const Vec3 tcp = g.T_world_tcp.translation();
@@ -359,9 +448,19 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
                                          std::tuple{o.pad_half_width, pads_z_lo, pads_z_hi}})
     reach = std::max(reach, std::hypot(bx, box_y, std::max(std::abs(bz_lo), std::abs(bz_hi))));
   std::vector<int> frame_nb;
-  std::vector<Block> blocks;
-  std::vector<Local> obstacles, pads, unsorted_pads;
-  std::vector<PadKey> pad_keys;
+  // The pads' box over all depths: the farthest its points are from the seed.
+  const double pads_reach = std::hypot(o.pad_half_width, half_span, std::max(std::abs(pads_z_lo), std::abs(pads_z_hi)));
+  NearBlocks blocks, near_pads;
+  // A hand's points between the pads and its obstacles: the first n_pads and n_obstacles. Every
+  // point a pass reads is written at the end, which moves on only if the point is kept (no branch).
+  std::vector<Local> pads(tested.size()), obstacles(tested.size());
+  size_t n_pads = 0, n_obstacles = 0;
+  std::vector<double> bx_, by_, bz_;  // a block's points in a hand's frame
+  for (const std::vector<Block>* set : {&all_blocks, &pad_blocks})
+    for (const Block& b : *set) {
+      const size_t n = b.last - b.first;
+      if (n > bx_.size()) bx_.resize(n), by_.resize(n), bz_.resize(n);
+    }
   std::vector<std::pair<double, bool>> ys;
   // The hands of `n_seeds` seeds, each kept one added to `found`; the second look of a view that
   // gave none or only weak ones (snap_down, floor_contacts, weak_score): `second_look`.
@@ -406,9 +505,8 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
       // The blocks within reach (the whole pile, mostly) of the tested points (all but the floor's
       // within its noise, which no test reads: the floor is checked as its plane), each block's
       // centre about the seed.
-      blocks.clear();
-      for (const Block& b : all_blocks)
-        if ((b.centre - ps).norm() <= reach + b.radius + 1e-9) blocks.push_back({b.centre - ps, b.radius, b.first, b.last, b.half});
+      blocks.select(all_blocks, ps, reach);
+      near_pads.select(pad_blocks, ps, pads_reach);
       const double sx0 = ps.x(), sy0 = ps.y(), sz0 = ps.z();
       for (const Vec3& ax : axes) {
         const Vec3 binormal = ax.cross(normal).normalized();
@@ -448,60 +546,63 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
           // The tested points in the hand's frame, by blocks: a block whose bounding box (or ball)
           // misses a box [-hx, hx] x [-hy, hy] x [zlo, zhi] of the hand's frame holds none of its
           // points and is skipped whole.
-          auto blockMeets = [&](const Block& b, double hx, double hy, double zlo, double zhi) {
-            // The block's reach along each axis: its bounding box's (its ball's, if less).
-            const double bx = x.dot(b.centre), by = y.dot(b.centre), bz = z.dot(b.centre);
-            const double sx = std::min(b.radius, x.cwiseAbs().dot(b.half)) + 1e-9, sy = std::min(b.radius, y.cwiseAbs().dot(b.half)) + 1e-9,
-                         sz = std::min(b.radius, z.cwiseAbs().dot(b.half)) + 1e-9;
-            return std::abs(bx) <= hx + sx && std::abs(by) <= hy + sy && bz >= zlo - sz && bz <= zhi + sz;
-          };
-          // Tested point k in the hand's frame about the seed (both passes below read it so: the same
-          // coordinates in each).
-          auto inHand = [&](size_t k) {
-            return std::array<double, 3>{x.x() * (tx[k] - sx0) + x.y() * (ty[k] - sy0) + x.z() * (tz[k] - sz0),
-                                         y.x() * (tx[k] - sx0) + y.y() * (ty[k] - sy0) + y.z() * (tz[k] - sz0),
-                                         z.x() * (tx[k] - sx0) + z.y() * (ty[k] - sy0) + z.z() * (tz[k] - sz0)};
+          blocks.project(R);
+          near_pads.project(R);
+          // A block's points (of the coordinates X, Y, Z) in the hand's frame about the seed, into
+          // bx_, by_, bz_: one loop over arrays, which the compiler vectorizes. A point has the same
+          // coordinates whichever pass reads it.
+          auto toHand = [&](const Block& b, const std::vector<double>& X, const std::vector<double>& Y, const std::vector<double>& Z) {
+            const double x0 = x.x(), x1 = x.y(), x2 = x.z(), y0 = y.x(), y1 = y.y(), y2 = y.z(), z0 = z.x(), z1 = z.y(), z2 = z.z();
+            const double* __restrict px = X.data() + b.first;
+            const double* __restrict py = Y.data() + b.first;
+            const double* __restrict pz = Z.data() + b.first;
+            double* __restrict ox = bx_.data();
+            double* __restrict oy = by_.data();
+            double* __restrict oz = bz_.data();
+            const size_t n = b.last - b.first;
+            for (size_t j = 0; j < n; ++j) {
+              const double dx = px[j] - sx0, dy = py[j] - sy0, dz = pz[j] - sz0;
+              ox[j] = x0 * dx + x1 * dy + x2 * dz;
+              oy[j] = y0 * dx + y1 * dy + y2 * dz;
+              oz[j] = z0 * dx + z1 * dy + z2 * dz;
+            }
           };
           // The points that may lie between the pads at some depth (the contacts; not the floor's),
           // read first: most hands end on them alone (too wide, on a wall, too low).
-          unsorted_pads.clear();
-          for (const Block& b : blocks) {
-            if (!blockMeets(b, o.pad_half_width, half_span, pads_z_lo, pads_z_hi)) continue;
-            for (size_t k = b.first; k < b.last; ++k) {
-              const auto [px, py, pz] = inHand(k);
-              if ((std::abs(px) <= o.pad_half_width) & (std::abs(py) <= half_span) & (pz >= pads_z_lo) & (pz <= pads_z_hi) & !t_floor[k])
-                unsorted_pads.push_back({Vec3(px, py, pz), t_cell[k]});
+          n_pads = 0;
+          for (size_t i = 0; i < near_pads.size(); ++i) {
+            if (!near_pads.meets(i, o.pad_half_width, half_span, pads_z_lo, pads_z_hi)) continue;
+            const Block& b = near_pads[i];
+            toHand(b, pad_x, pad_y, pad_z);
+            for (size_t k = b.first, j = 0; k < b.last; ++k, ++j) {
+              const double px = bx_[j], py = by_[j], pz = bz_[j];
+              pads[n_pads] = {Vec3(px, py, pz), pad_cell[k]};
+              n_pads += (std::abs(px) <= o.pad_half_width) & (std::abs(py) <= half_span) & (pz >= pads_z_lo) & (pz <= pads_z_hi);
             }
           }
-          // Across the pads, a wall's point after an object's at the same y: each depth's run along y
-          // (ys) is then read in order, with no sort of its own. Sorted by small keys (y, a wall's
-          // bit and the place), then gathered.
-          pad_keys.clear();
-          for (size_t j = 0; j < unsorted_pads.size(); ++j)
-            pad_keys.push_back({unsorted_pads[j].p.y(), static_cast<uint32_t>(j << 1 | (unsorted_pads[j].part == kWall))});
-          std::sort(pad_keys.begin(), pad_keys.end(),
-                    [](const PadKey& a, const PadKey& b) { return a.y < b.y || (a.y == b.y && (a.at & 1) < (b.at & 1)); });
-          pads.clear();
-          for (const PadKey& key : pad_keys) pads.push_back(unsorted_pads[key.at >> 1]);
           // The obstacles (but the floor within its noise, checked as the plane) in the boxes the
-          // fingers and the body sweep at some depth, block by block in the tested points' order:
-          // only when a depth first sweeps the hand.
-          obstacles.clear();
-          bool have_obstacles = false;
-          auto obstaclesOf = [&]() -> const std::vector<Local>& {
-            if (!have_obstacles)
-              for (const Block& b : blocks) {
-                if (!blockMeets(b, fingers_x, box_y, fingers_z_lo, fingers_z_hi) && !blockMeets(b, body_x, box_y, body_z_lo, body_z_hi)) continue;
-                for (size_t k = b.first; k < b.last; ++k) {
-                  const auto [px, py, pz] = inHand(k);
-                  const double across = std::abs(px);
-                  const bool fingers = (across <= fingers_x) & (pz >= fingers_z_lo) & (pz <= fingers_z_hi);
-                  const bool body = (across <= body_x) & (pz >= body_z_lo) & (pz <= body_z_hi);
-                  if ((fingers | body) & (std::abs(py) <= box_y) & !t_on_plane[k]) obstacles.push_back({Vec3(px, py, pz), t_cell[k]});
-                }
+          // fingers and the body sweep at some depth, block by block in the tested points' order,
+          // gathered as a depth's sweep reads on (one that is blocked early reads few blocks):
+          // moreObstacles gathers the next block's, false when no block is left.
+          n_obstacles = 0;
+          size_t next_block = 0;
+          auto moreObstacles = [&]() {
+            while (next_block < blocks.size()) {
+              const size_t i = next_block++;
+              if (!blocks.meets(i, fingers_x, box_y, fingers_z_lo, fingers_z_hi) && !blocks.meets(i, body_x, box_y, body_z_lo, body_z_hi)) continue;
+              const Block& b = blocks[i];
+              toHand(b, tx, ty, tz);
+              for (size_t k = b.first, j = 0; k < b.last; ++k, ++j) {
+                const double px = bx_[j], py = by_[j], pz = bz_[j];
+                const double across = std::abs(px);
+                const bool fingers = (across <= fingers_x) & (pz >= fingers_z_lo) & (pz <= fingers_z_hi);
+                const bool body = (across <= body_x) & (pz >= body_z_lo) & (pz <= body_z_hi);
+                obstacles[n_obstacles] = {Vec3(px, py, pz), t_cell[k]};
+                n_obstacles += (fingers | body) & (std::abs(py) <= box_y) & !t_on_plane[k];
               }
-            have_obstacles = true;
-            return obstacles;
+              return true;
+            }
+            return false;
           };
           // Push the hand forward: the TCP at depth d along z from the seed. The deepest hand whose
           // straight approach is clear, with enough points between the pads, is kept.
@@ -519,18 +620,38 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
           double low_clear = 0, low_margin = 0;
           for (double d = d_first; d <= d_last; d += o.depth_step) {
             // Between the pads: the run of points along y around the seed, split by a gap a finger fits in.
-            ys.clear();  // y, a wall's point; in order
-            for (const Local& l : pads) {
+            ys.clear();  // y, a wall's point
+            for (size_t i = 0; i < n_pads; ++i) {
+              const Local& l = pads[i];
               const double zz = l.p.z() - d;
               if (zz >= o.pad_z_min && zz <= o.pad_z_max && std::abs(l.p.y()) <= o.hand_opening / 2 + o.finger_thickness)
                 ys.emplace_back(l.p.y(), l.part == kWall);
             }
+            // The run ends [lo, hi]: from the seed each way, the farthest point reached in steps
+            // shorter than a finger (the farthest within a finger of the end so far, until none).
             double lo = 0, hi = 0;
+            for (bool moved = true; moved;) {
+              double next = hi;
+              for (const auto& [yy, is_wall] : ys)
+                if (yy > hi && yy - hi < o.finger_thickness) next = std::max(next, yy);
+              moved = next > hi, hi = next;
+            }
+            for (bool moved = true; moved;) {
+              double next = lo;
+              for (const auto& [yy, is_wall] : ys)
+                if (yy < lo && lo - yy < o.finger_thickness) next = std::min(next, yy);
+              moved = next < lo, lo = next;
+            }
+            // On a wall: a wall's point in the run, but one at the very y of an object's point above
+            // the seed (the run is read upwards with an object's point first, downwards with a
+            // wall's: the rule as first written, kept so that outcomes stay as measured).
             bool on_cell = false;
-            for (const auto& [yy, is_cell] : ys)  // upwards from the seed
-              if (yy > hi && yy - hi < o.finger_thickness) hi = yy, on_cell |= is_cell;
-            for (auto it = ys.rbegin(); it != ys.rend(); ++it)
-              if (it->first < lo && lo - it->first < o.finger_thickness) lo = it->first, on_cell |= it->second;
+            for (const auto& [yy, is_wall] : ys) {
+              if (!is_wall || on_cell) continue;
+              if (yy < 0 && yy >= lo) on_cell = true;
+              else if (yy > 0 && yy <= hi)
+                on_cell = std::none_of(ys.begin(), ys.end(), [&](const std::pair<double, bool>& q) { return !q.second && q.first == yy; });
+            }
             if (on_cell) {  // the pads would close on a wall
               if (!have) why = kOnCell;
               break;
@@ -565,7 +686,11 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
             int blocked = kNone;
             int between = 0;
             double clear = 0.02;
-            for (const Local& l : obstaclesOf()) {
+            for (size_t i = 0;; ++i) {
+              while (i == n_obstacles && moreObstacles()) {
+              }
+              if (i == n_obstacles) break;
+              const Local& l = obstacles[i];
               const double zz = l.p.z() - d, yy = l.p.y() - c, ay = std::abs(yy);
               if (zz <= o.pad_z_max + pad && zz >= -o.hand_back - o.approach_clear && std::abs(l.p.x()) <= o.pad_half_width + pad &&
                   ay >= open && ay <= open + o.finger_thickness + pad) {
@@ -598,7 +723,8 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
             constexpr int kNx = 3, kNz = 6;
             double ext[2][kNx][kNz];
             bool filled[2][kNx][kNz] = {};
-            for (const Local& l : pads) {
+            for (size_t i = 0; i < n_pads; ++i) {
+              const Local& l = pads[i];
               const double zz = l.p.z() - d;
               if (zz < o.pad_z_min || zz > o.pad_z_max || l.p.y() < lo || l.p.y() > hi) continue;
               const int ix = std::clamp(static_cast<int>((l.p.x() + o.pad_half_width) / (2 * o.pad_half_width) * kNx), 0, kNx - 1);
@@ -721,6 +847,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
     search(true);
     rank();
   }
+  res.cloud.normals = N.release();
   res.seconds.hands = since(t0);
   return res;
 }

@@ -114,6 +114,8 @@ CloudGraspOptions cloudGraspOptionsFor(const GraspOptions& hand);
 PointCloud cloudFromDepth(const Frame& frame, const CloudGraspOptions& o);
 
 struct CloudGraspResult {
+  /// The points the hands were sought on, and the normals the detector fitted: a normal is fitted
+  /// only when read (most of the floor's never are), the others are zero. cloudFromDepth gives all.
   PointCloud cloud;
   std::vector<GraspCandidate> candidates;  ///< best first; type kCloud
   int seeds = 0, hands = 0;                ///< seeds drawn, hands evaluated
@@ -126,7 +128,9 @@ struct CloudGraspResult {
   int tilted = 0, on_cell = 0, fingers_blocked = 0, hand_blocked = 0, too_wide = 0, too_low = 0, sparse = 0, not_antipodal = 0, unseen = 0,
       neighbour = 0;
   struct {
-    double cloud = 0, hands = 0;  ///< wall-clock seconds (benchmarks print them; nothing decides by them)
+    /// Wall-clock seconds (benchmarks print them; nothing decides by them): the points in the
+    /// region, one per voxel; the hands, with the normals they read.
+    double cloud = 0, hands = 0;
   } seconds;
 };
 

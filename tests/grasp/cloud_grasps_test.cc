@@ -210,6 +210,19 @@ TEST(CloudGrasps, TheSameViewAndSeedGiveTheSameCandidates) {
     EXPECT_EQ(ra.candidates[k].type, GraspType::kCloud);
   }
   EXPECT_NE(ra.candidates.front().T_world_tcp.matrix(), rc.candidates.front().T_world_tcp.matrix()) << "other seeds, other samples";
+  // The detector fits a normal only where it reads one: the same normal cloudFromDepth fits for
+  // every point, to the bit; the floor's, mostly, are never fitted.
+  const PointCloud all = cloudFromDepth(frame, o);
+  ASSERT_EQ(all.points, ra.cloud.points);
+  ASSERT_EQ(all.normals.size(), ra.cloud.normals.size());
+  size_t fitted = 0;
+  for (size_t i = 0; i < all.normals.size(); ++i) {
+    if (ra.cloud.normals[i] == Vec3::Zero()) continue;
+    ++fitted;
+    ASSERT_EQ(ra.cloud.normals[i], all.normals[i]) << i;
+  }
+  EXPECT_GT(fitted, 0u);
+  EXPECT_LT(fitted, all.normals.size() / 2) << "most points' normals are never read";
 }
 
 // A bar lying 16 mm tall alone in the bin, in the stereo noise. A top-down hand needs the bar's
