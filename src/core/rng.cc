@@ -72,7 +72,23 @@ double Rng::normal() {
 }
 
 void Rng::normalsAndUniforms(double* normals, double* uniforms, size_t n) {
-  for (size_t i = 0; i < n; ++i) {
+  size_t i = 0;
+  if (n > 0 && has_spare_) {  // the pair drawn last time ends here
+    normals[i] = normal();
+    uniforms[i++] = uniform();
+  }
+  // normal(), uniform(), normal() (the spare), uniform(), a pair at a time: the same numbers.
+  for (; i + 1 < n; i += 2) {
+    double u1;
+    do u1 = uniform(); while (u1 <= 0.0);
+    const double u2 = uniform();
+    const double r = std::sqrt(-2.0 * std::log(u1));
+    normals[i] = r * std::cos(2.0 * M_PI * u2);
+    uniforms[i] = uniform();
+    normals[i + 1] = r * std::sin(2.0 * M_PI * u2);
+    uniforms[i + 1] = uniform();
+  }
+  if (i < n) {
     normals[i] = normal();
     uniforms[i] = uniform();
   }

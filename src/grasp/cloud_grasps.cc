@@ -456,13 +456,18 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   // point a pass reads is written at the end, which moves on only if the point is kept (no branch).
   std::vector<Local> pads(tested.size()), obstacles(tested.size());
   size_t n_pads = 0, n_obstacles = 0;
-  std::vector<double> bx_, by_, bz_;  // a block's points in a hand's frame
+  std::vector<double> bx_;  // a block's points' x in a hand's frame
+  std::vector<int> within_;  // and which of them are within the box's x
   for (const std::vector<Block>* set : {&all_blocks, &pad_blocks})
     for (const Block& b : *set) {
       const size_t n = b.last - b.first;
-      if (n > bx_.size()) bx_.resize(n), by_.resize(n), bz_.resize(n);
+      if (n > bx_.size()) bx_.resize(n), within_.resize(n);
     }
-  std::vector<std::pair<double, bool>> ys;
+  // A depth's points between the pads on each side of the seed (y > 0 and y < 0; one at y = 0 ends
+  // no run and is no wall's in it): their y, and whether each is a wall's.
+  std::vector<double> ys_pos(tested.size()), ys_neg(tested.size());
+  std::vector<char> wall_pos(tested.size()), wall_neg(tested.size());
+  std::vector<double> run_(tested.size());  // the run's points not yet passed
   // The hands of `n_seeds` seeds, each kept one added to `found`; the second look of a view that
   // gave none or only weak ones (snap_down, floor_contacts, weak_score): `second_look`.
   std::vector<GraspCandidate> found;  // every hand kept, of both looks
@@ -547,25 +552,26 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
           // The tested points in the hand's frame, by blocks: a block whose bounding box (or ball)
           // misses a box [-hx, hx] x [-hy, hy] x [zlo, zhi] of the hand's frame holds none of its
           // points and is skipped whole.
-          blocks.project(R);
           near_pads.project(R);
-          // A block's points (of the coordinates X, Y, Z) in the hand's frame about the seed, into
-          // bx_, by_, bz_: one loop over arrays, which the compiler vectorizes. A point has the same
-          // coordinates whichever pass reads it.
-          auto toHand = [&](const Block& b, const std::vector<double>& X, const std::vector<double>& Y, const std::vector<double>& Z) {
+          // A block's points (of the coordinates X, Y, Z) in the hand's frame about the seed, x first:
+          // x of every point in one loop over arrays (which the compiler vectorizes), y and z only of
+          // those within `across` of the hand's yz-plane, each handed to keep(k, x, y, z) (k: its
+          // place in X, Y, Z). A point has the same coordinates whichever pass reads it.
+          auto inHand = [&](const Block& b, const std::vector<double>& X, const std::vector<double>& Y, const std::vector<double>& Z, double across,
+                            auto&& keep) {
             const double x0 = x.x(), x1 = x.y(), x2 = x.z(), y0 = y.x(), y1 = y.y(), y2 = y.z(), z0 = z.x(), z1 = z.y(), z2 = z.z();
             const double* __restrict px = X.data() + b.first;
             const double* __restrict py = Y.data() + b.first;
             const double* __restrict pz = Z.data() + b.first;
             double* __restrict ox = bx_.data();
-            double* __restrict oy = by_.data();
-            double* __restrict oz = bz_.data();
             const size_t n = b.last - b.first;
-            for (size_t j = 0; j < n; ++j) {
+            for (size_t j = 0; j < n; ++j) ox[j] = x0 * (px[j] - sx0) + x1 * (py[j] - sy0) + x2 * (pz[j] - sz0);
+            size_t m = 0;
+            for (size_t j = 0; j < n; ++j) within_[m] = static_cast<int>(j), m += std::abs(ox[j]) <= across;
+            for (size_t t = 0; t < m; ++t) {
+              const size_t j = within_[t];
               const double dx = px[j] - sx0, dy = py[j] - sy0, dz = pz[j] - sz0;
-              ox[j] = x0 * dx + x1 * dy + x2 * dz;
-              oy[j] = y0 * dx + y1 * dy + y2 * dz;
-              oz[j] = z0 * dx + z1 * dy + z2 * dz;
+              keep(b.first + j, ox[j], y0 * dx + y1 * dy + y2 * dz, z0 * dx + z1 * dy + z2 * dz);
             }
           };
           // The points that may lie between the pads at some depth (the contacts; not the floor's),
@@ -573,13 +579,10 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
           n_pads = 0;
           for (size_t i = 0; i < near_pads.size(); ++i) {
             if (!near_pads.meets(i, o.pad_half_width, half_span, pads_z_lo, pads_z_hi)) continue;
-            const Block& b = near_pads[i];
-            toHand(b, pad_x, pad_y, pad_z);
-            for (size_t k = b.first, j = 0; k < b.last; ++k, ++j) {
-              const double px = bx_[j], py = by_[j], pz = bz_[j];
+            inHand(near_pads[i], pad_x, pad_y, pad_z, o.pad_half_width, [&](size_t k, double px, double py, double pz) {
               pads[n_pads] = {Vec3(px, py, pz), pad_cell[k]};
-              n_pads += (std::abs(px) <= o.pad_half_width) & (std::abs(py) <= half_span) & (pz >= pads_z_lo) & (pz <= pads_z_hi);
-            }
+              n_pads += (std::abs(py) <= half_span) & (pz >= pads_z_lo) & (pz <= pads_z_hi);
+            });
           }
           // The obstacles (but the floor within its noise, checked as the plane) in the boxes the
           // fingers and the body sweep at some depth, block by block in the tested points' order,
@@ -588,19 +591,17 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
           n_obstacles = 0;
           size_t next_block = 0;
           auto moreObstacles = [&]() {
+            if (next_block == 0) blocks.project(R);  // fewer than half the hands gather any
             while (next_block < blocks.size()) {
               const size_t i = next_block++;
               if (!blocks.meets(i, fingers_x, box_y, fingers_z_lo, fingers_z_hi) && !blocks.meets(i, body_x, box_y, body_z_lo, body_z_hi)) continue;
-              const Block& b = blocks[i];
-              toHand(b, tx, ty, tz);
-              for (size_t k = b.first, j = 0; k < b.last; ++k, ++j) {
-                const double px = bx_[j], py = by_[j], pz = bz_[j];
+              inHand(blocks[i], tx, ty, tz, std::max(fingers_x, body_x), [&](size_t k, double px, double py, double pz) {
                 const double across = std::abs(px);
                 const bool fingers = (across <= fingers_x) & (pz >= fingers_z_lo) & (pz <= fingers_z_hi);
                 const bool body = (across <= body_x) & (pz >= body_z_lo) & (pz <= body_z_hi);
                 obstacles[n_obstacles] = {Vec3(px, py, pz), t_cell[k]};
                 n_obstacles += (fingers | body) & (std::abs(py) <= box_y) & !t_on_plane[k];
-              }
+              });
               return true;
             }
             return false;
@@ -621,37 +622,46 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
           double low_clear = 0, low_margin = 0;
           for (double d = d_first; d <= d_last; d += o.depth_step) {
             // Between the pads: the run of points along y around the seed, split by a gap a finger fits in.
-            ys.clear();  // y, a wall's point
-            for (size_t i = 0; i < n_pads; ++i) {
+            size_t n_pos = 0, n_neg = 0;
+            for (size_t i = 0; i < n_pads; ++i) {  // written at the end of both, kept by one or neither (no branch)
               const Local& l = pads[i];
-              const double zz = l.p.z() - d;
-              if (zz >= o.pad_z_min && zz <= o.pad_z_max && std::abs(l.p.y()) <= o.hand_opening / 2 + o.finger_thickness)
-                ys.emplace_back(l.p.y(), l.part == kWall);
+              const double zz = l.p.z() - d, yy = l.p.y();
+              const bool between = (zz >= o.pad_z_min) & (zz <= o.pad_z_max) & (std::abs(yy) <= o.hand_opening / 2 + o.finger_thickness);
+              ys_pos[n_pos] = ys_neg[n_neg] = yy;
+              wall_pos[n_pos] = wall_neg[n_neg] = l.part == kWall;
+              n_pos += between & (yy > 0);
+              n_neg += between & (yy < 0);
             }
             // The run ends [lo, hi]: from the seed each way, the farthest point reached in steps
             // shorter than a finger (the farthest within a finger of the end so far, until none).
-            double lo = 0, hi = 0;
-            for (bool moved = true; moved;) {
-              double next = hi;
-              for (const auto& [yy, is_wall] : ys)
-                if (yy > hi && yy - hi < o.finger_thickness) next = std::max(next, yy);
-              moved = next > hi, hi = next;
-            }
-            for (bool moved = true; moved;) {
-              double next = lo;
-              for (const auto& [yy, is_wall] : ys)
-                if (yy < lo && lo - yy < o.finger_thickness) next = std::min(next, yy);
-              moved = next < lo, lo = next;
-            }
+            // (A point the end has passed is never read again: each look reads those beyond the last.)
+            auto runEnd = [&](const std::vector<double>& from, size_t n, double side) {
+              const double* ys = from.data();
+              double e = 0;
+              for (bool moved = true; moved;) {
+                double next = e;
+                size_t beyond = 0;
+                for (size_t i = 0; i < n; ++i) {
+                  const double yy = side * ys[i];
+                  if (yy > e && yy - e < o.finger_thickness) next = std::max(next, yy);
+                  run_[beyond] = ys[i];
+                  beyond += yy > e;
+                }
+                ys = run_.data(), n = beyond;
+                moved = next > e, e = next;
+              }
+              return side * e;
+            };
+            const double hi = runEnd(ys_pos, n_pos, 1.0), lo = runEnd(ys_neg, n_neg, -1.0);
             // On a wall: a wall's point in the run, but one at the very y of an object's point above
             // the seed (the run is read upwards with an object's point first, downwards with a
             // wall's: the rule as first written, kept so that outcomes stay as measured).
             bool on_cell = false;
-            for (const auto& [yy, is_wall] : ys) {
-              if (!is_wall || on_cell) continue;
-              if (yy < 0 && yy >= lo) on_cell = true;
-              else if (yy > 0 && yy <= hi)
-                on_cell = std::none_of(ys.begin(), ys.end(), [&](const std::pair<double, bool>& q) { return !q.second && q.first == yy; });
+            for (size_t i = 0; i < n_neg && !on_cell; ++i) on_cell = wall_neg[i] && ys_neg[i] >= lo;
+            for (size_t i = 0; i < n_pos && !on_cell; ++i) {
+              if (!wall_pos[i] || ys_pos[i] > hi) continue;
+              on_cell = true;
+              for (size_t j = 0; j < n_pos && on_cell; ++j) on_cell = wall_pos[j] || ys_pos[j] != ys_pos[i];
             }
             if (on_cell) {  // the pads would close on a wall
               if (!have) why = kOnCell;

@@ -720,35 +720,56 @@ CameraPerceptionResult detectKnownObjects(const Frame& frame, const std::vector<
   return res;
 }
 
+// Whether each pixel of a depth image (w x h) lies on an edge: its 3x3 neighbourhood (the image's
+// border repeated) holds valid depths (> 0) spanning more than `jump`. The neighbourhood's least
+// and greatest valid depths, by rows then by columns (a min and max filter: the same values as
+// read pixel by pixel, whatever the order). Only a pixel with a depth can be on an edge.
+namespace {
+std::vector<char> depthEdges(const std::vector<float>& depth, int w, int h, double jump) {
+  const size_t n = static_cast<size_t>(w) * static_cast<size_t>(h);
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  std::vector<float> lo(n), hi(n);  // over each pixel's row of three
+  for (int v = 0; v < h; ++v) {
+    const float* row = depth.data() + static_cast<size_t>(v) * w;
+    float* l = lo.data() + static_cast<size_t>(v) * w;
+    float* g = hi.data() + static_cast<size_t>(v) * w;
+    for (int u = 0; u < w; ++u) {
+      float a = kInf, b = -kInf;
+      for (const int uu : {std::max(u - 1, 0), u, std::min(u + 1, w - 1)}) {
+        const float z = row[uu];
+        if (z > 0) a = std::min(a, z), b = std::max(b, z);
+      }
+      l[u] = a, g[u] = b;
+    }
+  }
+  std::vector<char> edge(n);
+  for (int v = 0; v < h; ++v) {
+    const size_t up = static_cast<size_t>(std::max(v - 1, 0)) * w, at = static_cast<size_t>(v) * w,
+                 down = static_cast<size_t>(std::min(v + 1, h - 1)) * w;
+    for (int u = 0; u < w; ++u) {
+      const float a = std::min({lo[up + u], lo[at + u], lo[down + u]}), b = std::max({hi[up + u], hi[at + u], hi[down + u]});
+      edge[at + u] = depth[at + u] > 0 && b - a > jump;
+    }
+  }
+  return edge;
+}
+}  // namespace
+
 void applyDepthNoise(Frame& f, const DepthNoise& noise, Rng& rng) {
   const int w = f.camera.width, h = f.camera.height;
   if (f.depth.empty()) return;
-  const std::vector<float> z0 = f.depth;
-  auto at = [&](int u, int v) { return z0[static_cast<size_t>(v) * static_cast<size_t>(w) + static_cast<size_t>(u)]; };
+  const std::vector<char> edge = depthEdges(f.depth, w, h, noise.edge_jump);
   std::vector<double> gauss_row(static_cast<size_t>(w)), drop_row(static_cast<size_t>(w));
   for (int v = 0; v < h; ++v) {
     // Every pixel draws the same numbers whatever happens to it, so the streams stay aligned: a
     // normal then a uniform, a row at a time.
     rng.normalsAndUniforms(gauss_row.data(), drop_row.data(), gauss_row.size());
-    for (int u = 0; u < w; ++u) {
-      float& z = f.depth[static_cast<size_t>(v) * static_cast<size_t>(w) + static_cast<size_t>(u)];
-      const double gauss = gauss_row[static_cast<size_t>(u)], drop = drop_row[static_cast<size_t>(u)];
+    const size_t row = static_cast<size_t>(v) * static_cast<size_t>(w);
+    for (size_t u = 0; u < static_cast<size_t>(w); ++u) {
+      float& z = f.depth[row + u];
       if (z <= 0) continue;
-      if (drop < noise.edge_dropout) {  // the neighbourhood is read only where the pixel would drop at an edge
-        float lo = z, hi = z;
-        for (int dv = -1; dv <= 1; ++dv)
-          for (int du = -1; du <= 1; ++du) {
-            const int uu = std::clamp(u + du, 0, w - 1), vv = std::clamp(v + dv, 0, h - 1);
-            const float zz = at(uu, vv);
-            if (zz <= 0) continue;
-            lo = std::min(lo, zz), hi = std::max(hi, zz);
-          }
-        if (hi - lo > noise.edge_jump) {
-          z = 0;
-          continue;
-        }
-      }
-      z = static_cast<float>(z + gauss * noise.k * z * z);
+      if (drop_row[u] < noise.edge_dropout && edge[row + u]) z = 0;  // lost where the depth jumps
+      else z = static_cast<float>(z + gauss_row[u] * noise.k * z * z);
     }
   }
 }

@@ -39,7 +39,7 @@ TEST(Rng, UniformAndNormalMoments) {  // seed 3, 200k draws: mean/var within 5 s
 TEST(Rng, NormalsAndUniformsInOneCallDrawWhatPairsOfCallsDraw) {
   // Odd counts leave a spare normal for the next call; both ways must carry it alike.
   Rng bulk(5), calls(5);
-  for (const size_t n : {size_t{3}, size_t{640}, size_t{1}, size_t{7}}) {
+  for (const size_t n : {size_t{3}, size_t{640}, size_t{0}, size_t{1}, size_t{2}, size_t{7}}) {
     std::vector<double> g(n), u(n);
     bulk.normalsAndUniforms(g.data(), u.data(), n);
     for (size_t i = 0; i < n; ++i) {

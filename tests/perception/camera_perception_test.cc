@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 
 #include "../campaign/cli_helpers.h"
@@ -180,6 +181,61 @@ TEST(CameraPerception, DepthNoiseGrowsWithDepthSquaredAndDropsEdges) {
   EXPECT_NEAR(sum / n, 0.0, 0.0001);
   EXPECT_GT(dropped, 500) << "edges (cube sides, bin walls) lose pixels";
   EXPECT_LT(dropped, static_cast<long>(noisy.depth.size() / 20));
+}
+
+// The noise as first written, pixel by pixel: each pixel's 3x3 neighbourhood read where it would
+// drop. applyDepthNoise finds the edges by a min and max filter; the image must be the same, bit
+// for bit, and the stream left at the same place.
+void depthNoisePixelByPixel(Frame& f, const DepthNoise& noise, Rng& rng) {
+  const int w = f.camera.width, h = f.camera.height;
+  const std::vector<float> z0 = f.depth;
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u) {
+      const double gauss = rng.normal(), drop = rng.uniform();
+      float& z = f.depth[static_cast<size_t>(v) * w + u];
+      if (z <= 0) continue;
+      if (drop < noise.edge_dropout) {
+        float lo = z, hi = z;
+        for (int dv = -1; dv <= 1; ++dv)
+          for (int du = -1; du <= 1; ++du) {
+            const float zz = z0[static_cast<size_t>(std::clamp(v + dv, 0, h - 1)) * w + std::clamp(u + du, 0, w - 1)];
+            if (zz <= 0) continue;
+            lo = std::min(lo, zz), hi = std::max(hi, zz);
+          }
+        if (hi - lo > noise.edge_jump) {
+          z = 0;
+          continue;
+        }
+      }
+      z = static_cast<float>(z + gauss * noise.k * z * z);
+    }
+}
+
+TEST(CameraPerception, DepthNoiseFindsTheEdgesAsEachPixelsNeighbourhoodReadsThem) {
+  // Steps, holes, a NaN and an infinity, on odd sizes (a last row and column, a 1-pixel image).
+  for (const auto& [w, h] : {std::pair{37, 23}, std::pair{1, 1}, std::pair{1, 9}, std::pair{8, 1}}) {
+    Frame f;
+    f.camera.width = w, f.camera.height = h;
+    Rng shape(w * 100 + h);
+    f.depth.resize(static_cast<size_t>(w) * h);
+    for (float& z : f.depth) {
+      const double r = shape.uniform();
+      z = r < 0.1 ? 0.0f : r < 0.12 ? -1.0f : static_cast<float>(1.0 + (r < 0.5 ? 0.0 : 0.005 + 0.02 * shape.uniform()));
+    }
+    if (f.depth.size() > 10) f.depth[5] = std::nanf(""), f.depth[9] = std::numeric_limits<float>::infinity();
+    for (const double dropout : {0.0, 0.5, 1.0}) {
+      const DepthNoise noise{0.0015, 0.01, dropout};
+      Frame a = f, b = f;
+      Rng ra(7), rb(7);
+      applyDepthNoise(a, noise, ra);
+      depthNoisePixelByPixel(b, noise, rb);
+      ASSERT_EQ(a.depth.size(), b.depth.size());
+      for (size_t i = 0; i < a.depth.size(); ++i)
+        EXPECT_TRUE(std::memcmp(&a.depth[i], &b.depth[i], sizeof(float)) == 0)
+            << w << "x" << h << " dropout " << dropout << " pixel " << i << ": " << a.depth[i] << " against " << b.depth[i];
+      EXPECT_EQ(ra.next(), rb.next()) << "the same numbers drawn";
+    }
+  }
 }
 
 TEST(CameraPerception, PoseErrorRespectsTheBoxSymmetries) {
