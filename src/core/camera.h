@@ -24,6 +24,8 @@ struct CameraModel {
   Pose T_world_camera = Pose::Identity();  ///< OpenCV's camera frame
   /// Pixel (u, v) and depth z [m] of a world point.
   Vec3 project(const Vec3& p_world) const;
+  /// The same of a point in the camera's frame (a caller projecting many takes the inverse once).
+  Vec3 projectFromCamera(const Vec3& p_camera) const;
   /// The world point at pixel (u, v) and depth z [m].
   Vec3 unproject(double u, double v, double z) const;
 };

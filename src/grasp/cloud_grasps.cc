@@ -378,11 +378,11 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   const CameraModel& cam = frame.camera;
   const Pose T_camera_world = cam.T_world_camera.inverse();
   auto unseen = [&](const Vec3& p_world) {  // behind the observed surface, or where no depth is
-    const Vec3 p = T_camera_world * p_world;  // CameraModel::project, its inverse taken once
-    const int u = static_cast<int>(std::lround(cam.fx * p.x() / p.z() + cam.cx)), v = static_cast<int>(std::lround(cam.fy * p.y() / p.z() + cam.cy));
-    if (u < 0 || v < 0 || u >= cam.width || v >= cam.height || p.z() <= 0) return true;
+    const Vec3 uvz = cam.projectFromCamera(T_camera_world * p_world);  // the camera's inverse taken once
+    const int u = static_cast<int>(std::lround(uvz.x())), v = static_cast<int>(std::lround(uvz.y()));
+    if (u < 0 || v < 0 || u >= cam.width || v >= cam.height || uvz.z() <= 0) return true;
     const float d = frame.depth[static_cast<size_t>(v) * cam.width + u];
-    return !(d > 0) || p.z() > d + o.unknown_margin;
+    return !(d > 0) || uvz.z() > d + o.unknown_margin;
   };
 
   // The fingers' samples along the pads (the check of the unseen space below): every 4 mm at most
