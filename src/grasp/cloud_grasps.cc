@@ -339,13 +339,19 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   // between them (the fingers' volume keeps clear of it).
   std::vector<int> seedable, tested;
   std::vector<char> cell(P.size(), 0), on_plane(P.size(), 0);  // on_plane: the floor's, within its noise
+  const Pose T_camera_world = frame.camera.T_world_camera.inverse();
   for (size_t i = 0; i < P.size(); ++i) {
     const Vec3 q = T_region_world * P[i];
     // The floor: low, and facing up (an object's side near the floor faces sideways).
-    const bool floor = q.z() <= o.floor_noise || (q.z() <= o.floor_margin && (T_region_world.linear() * N[i]).z() > std::cos(o.floor_normal));
+    const bool up = q.z() > o.floor_noise && q.z() <= o.floor_margin && (T_region_world.linear() * N[i]).z() > std::cos(o.floor_normal);
+    const bool floor = q.z() <= o.floor_noise || up;
     const bool wall = std::abs(q.x()) > o.region_half.x() - o.wall_margin || std::abs(q.y()) > o.region_half.y() - o.wall_margin;
     cell[i] = wall ? kWall : floor ? kFloor : kNotCell;
-    on_plane[i] = floor && q.z() <= o.floor_noise;
+    // The floor's plane: within floor_noise of it, or facing up within the sensor's noise of it
+    // (floor_sigmas of sigma = depth_sigma_k z^2 at the point's depth): the noisy floor the
+    // fingertips pass over, not an obstacle on it.
+    const double zc = (T_camera_world * P[i]).z();
+    on_plane[i] = floor && (q.z() <= o.floor_noise || (up && q.z() <= o.floor_sigmas * o.depth_sigma_k * zc * zc));
     if (!cell[i]) seedable.push_back(static_cast<int>(i));
     if (!(on_plane[i] && cell[i] == kFloor)) tested.push_back(static_cast<int>(i));
   }
@@ -376,7 +382,6 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   const Grid grid(P, 0.02);
   const double pad = o.padding;
   const CameraModel& cam = frame.camera;
-  const Pose T_camera_world = cam.T_world_camera.inverse();
   auto unseen = [&](const Vec3& p_world) {  // behind the observed surface, or where no depth is
     const Vec3 uvz = cam.projectFromCamera(T_camera_world * p_world);  // the camera's inverse taken once
     const int u = static_cast<int>(std::lround(uvz.x())), v = static_cast<int>(std::lround(uvz.y()));
@@ -486,9 +491,11 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
       // A face that is flat (normals all alike) curves about no axis in particular (the eigenvector
       // the solver returns is any in its plane, the same for every seed of a noise-free face): the
       // axis is taken along the face's longest extent around the seed, so that the first hand closes
-      // across its narrowest, and three more are tried turned by 45 degrees.
+      // across its narrowest, and three more are tried turned by 45 degrees. The second look turns
+      // every seed's so (a curved top by a wall: its axis gives hands across it, onto the wall, or
+      // leaning a step of the approach's turn over the wall; turned, one closes along it straight down).
       std::vector<Vec3> axes{axis};
-      if (es.eigenvalues()(1) < 0.02 * es.eigenvalues()(2)) {
+      if (second_look || es.eigenvalues()(1) < 0.02 * es.eigenvalues()(2)) {
         constexpr double kFaceRadius = 0.04, kFaceOffset = 0.003;  // [m] the face's points: this near the seed, this near its plane
         const Vec3 e1 = (axis - axis.dot(normal) * normal).normalized(), e2 = normal.cross(e1);
         grid.near(ps, kFaceRadius, frame_nb);

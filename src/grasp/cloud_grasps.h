@@ -55,6 +55,10 @@ struct CloudGraspOptions {
   double floor_margin = 0.01;       ///< [m] points this close to the floor (its noise: 2 mm sigma at 1.2 m) ...
   double floor_normal = 0.5;        ///< [rad] ... and whose normal is within this of the floor's
   double floor_noise = 0.005;        ///< [m] points this close to the floor are its, whatever their normals (the depth's noise), and left out of the hands' checks for its plane
+  /// The sensor's depth noise (sigma = depth_sigma_k z^2, z the depth along the camera's axis) [1/m]:
+  /// a floor point facing up within floor_sigmas of it (and floor_margin) is the floor's plane too.
+  double depth_sigma_k = 0.0;
+  double floor_sigmas = 3.0;
   double floor_clearance = 0.002;    ///< [m] the fingers and the hand (padded) at least this far above the floor's plane
   double wall_margin = 0.004;       ///< [m] points this close to the footprint's edge, or beyond, are the walls'
                                     ///< (floor and walls: obstacles, never seeds, never between the pads)
@@ -66,8 +70,10 @@ struct CloudGraspOptions {
   double level_turn = 0.17;         ///< [rad] a hand whose closing axis is more than this from the level direction across its approach is tried along that too
   double max_tilt = 0.9;            ///< [rad] the approach from straight down
   /// [rad] A view that gives no candidate is searched again (more seeds from the stream), each
-  /// approach within this of straight down taken straight down with its closing axis level, and a
-  /// hand whose fingertips reach the floor kept with `floor_contacts` cells (0: no second look).
+  /// approach within this of straight down taken straight down with its closing axis level, every
+  /// seed's hands also turned by 45, 90 and 135 degrees about its normal (as a flat face's always
+  /// are), and a hand whose fingertips reach the floor kept with `floor_contacts` cells (0: no
+  /// second look).
   double snap_down = 0.0;
   /// A view whose best candidate scores below this is looked at again too (with snap_down), and the
   /// two looks' candidates ranked together (0: only a view with none).

@@ -16,7 +16,9 @@ void PerceptionOptions::declare(ConfigArchive& a) {
   a.value("camera_width", camera_width, {64, 4096}, "px", "camera mode: image width");
   a.value("camera_height", camera_height, {48, 4096}, "px", "camera mode: image height");
   a.value("depth_noise", noise.k, {0.0, 0.05}, "1/m",
-          "camera mode: a stereo camera's depth noise, sigma = k z^2 (0.0015: 1.5 mm at 1 m, 2.4 mm at the bin's 1.27 m); 0: none");
+          "camera mode: a stereo camera's depth noise, sigma = k z^2 (0.0015: 1.5 mm at 1 m, 2.4 mm at the bin's 1.27 m); 0: none. "
+          "The perception and grasp detection read it as the sensor's datasheet (cloud grasps: the floor's points facing up "
+          "within 3 sigma of it are its plane, not obstacles)");
   a.path("extrinsics", extrinsics,
          "camera mode: the camera's pose as `minimanip calibrate` wrote it (results/calibration/<camera>_extrinsics.yaml); "
          "simulator: where the scene mounts the camera (a camera knocked off its mount, the extrinsics_drift fault, is elsewhere)");

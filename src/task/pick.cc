@@ -206,6 +206,7 @@ CloudGraspOptions cloudGraspOptionsFor(const GripperSpec& gripper, const TaskOpt
   co.T_world_region = perception.T_world_crop;
   co.region_half = perception.crop_half;
   co.region_height = perception.crop_height;
+  co.depth_sigma_k = perception.noise.k;  // the sensor's datasheet: the noise the experiment gives it
   co.finger_margin = task.finger_margin;
   co.padding = task.cloudGraspPadding();
   co.seeds = task.cloud_seeds;

@@ -51,8 +51,9 @@ void TaskOptions::declare(ConfigArchive& a) {
           "0.36; at most atan of the gripper's pad friction)");
   a.value("cloud_snap_down", cloud_snap_down, {0.0, 0.5}, "rad",
           "cloud grasps: a view that gives no candidate is looked at again (as many seeds more), each approach within "
-          "this of straight down taken straight down with its closing axis level (a low object's noisy top tilts its "
-          "hands, and a tilted hand's far finger dips to the floor); 0: no second look");
+          "this of straight down taken straight down with its closing axis level, and every seed's hands turned by 45, "
+          "90 and 135 degrees about its normal too (a low object's noisy top tilts its hands, and a tilted hand's far "
+          "finger dips to the floor; a curved object by a wall gets hands along it); 0: no second look");
   a.value("cloud_weak_score", cloud_weak_score, {0.0, 3.0}, "",
           "cloud grasps: a view whose best candidate scores below this is looked at again as one with none "
           "(cloud_snap_down), and the two looks' candidates ranked together; 0: only a view with none. A score is the "
