@@ -350,8 +350,11 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
     // The floor's plane: within floor_noise of it, or facing up within the sensor's noise of it
     // (floor_sigmas of sigma = depth_sigma_k z^2 at the point's depth): the noisy floor the
     // fingertips pass over, not an obstacle on it.
-    const double zc = (T_camera_world * P[i]).z();
-    on_plane[i] = floor && (q.z() <= o.floor_noise || (up && q.z() <= o.floor_sigmas * o.depth_sigma_k * zc * zc));
+    auto sigmas = [&] {  // floor_sigmas of the sensor's sigma at the point's depth, read only for a point facing up
+      const double zc = (T_camera_world * P[i]).z();
+      return o.floor_sigmas * o.depth_sigma_k * zc * zc;
+    };
+    on_plane[i] = floor && (q.z() <= o.floor_noise || (up && q.z() <= sigmas()));
     if (!cell[i]) seedable.push_back(static_cast<int>(i));
     if (!(on_plane[i] && cell[i] == kFloor)) tested.push_back(static_cast<int>(i));
   }
