@@ -3,6 +3,7 @@
 #include "perception/segmentation.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <chrono>
 #include <map>
@@ -204,6 +205,61 @@ Segmentation segmentLabels(const Frame& frame, const SegmentationOptions& o) {
   keepSegments(segments, o, out);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
+}
+
+std::vector<std::vector<int>> segmentMasks(const Frame& frame, const std::vector<Segment>& segments, int passes) {
+  std::vector<std::vector<int>> masks;
+  for (const Segment& s : segments) masks.push_back(s.pixels);
+  const int w = frame.camera.width, h = frame.camera.height;
+  if (segments.empty() || passes <= 0 || frame.depth.size() != static_cast<size_t>(w) * static_cast<size_t>(h)) return masks;
+  // The labels over the segments' bounding rectangle, passes + 1 wider (no pass takes a pixel
+  // further out, and every pixel a pass may take has its neighbours inside):
+  // a segment's index, kNone (depth, in no segment) or kUnknown (no depth, not yet taken).
+  constexpr int kNone = -1, kUnknown = -2;
+  int u0 = w, v0 = h, u1 = -1, v1 = -1;
+  for (const Segment& s : segments)
+    for (int p : s.pixels) u0 = std::min(u0, p % w), u1 = std::max(u1, p % w), v0 = std::min(v0, p / w), v1 = std::max(v1, p / w);
+  u0 = std::max(0, u0 - passes - 1), v0 = std::max(0, v0 - passes - 1), u1 = std::min(w - 1, u1 + passes + 1), v1 = std::min(h - 1, v1 + passes + 1);
+  const int bw = u1 - u0 + 1, bh = v1 - v0 + 1;
+  std::vector<int> label(static_cast<size_t>(bw) * static_cast<size_t>(bh));
+  for (int v = v0; v <= v1; ++v)
+    for (int u = u0; u <= u1; ++u)
+      label[static_cast<size_t>((v - v0) * bw + (u - u0))] = frame.depth[static_cast<size_t>(v * w + u)] > 0 ? kNone : kUnknown;
+  for (size_t k = 0; k < segments.size(); ++k)
+    for (int p : segments[k].pixels) label[static_cast<size_t>((p / w - v0) * bw + (p % w - u0))] = static_cast<int>(k);
+  for (int pass = 0; pass < passes; ++pass) {
+    std::vector<std::pair<int, int>> taken;  // (pixel in the rectangle, segment), applied after the pass
+    for (int y = 0; y < bh; ++y)
+      for (int x = 0; x < bw; ++x) {
+        if (label[static_cast<size_t>(y * bw + x)] != kUnknown) continue;
+        std::array<int, 9> seen{}, count{};
+        int kinds = 0;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int xx = x + dx, yy = y + dy;
+            if (xx < 0 || yy < 0 || xx >= bw || yy >= bh) continue;
+            const int l = label[static_cast<size_t>(yy * bw + xx)];
+            if (l == kUnknown) continue;
+            int i = 0;
+            while (i < kinds && seen[static_cast<size_t>(i)] != l) ++i;
+            if (i == kinds) seen[static_cast<size_t>(kinds++)] = l;
+            ++count[static_cast<size_t>(i)];
+          }
+        int best = kUnknown, most = 0;
+        for (int i = 0; i < kinds; ++i) {
+          const int l = seen[static_cast<size_t>(i)], c = count[static_cast<size_t>(i)];
+          if (c > most || (c == most && l < best)) best = l, most = c;  // ties: none (-1), then the first segment
+        }
+        if (best >= 0) taken.emplace_back(y * bw + x, best);
+      }
+    if (taken.empty()) break;
+    for (const auto& [i, k] : taken) {
+      label[static_cast<size_t>(i)] = k;
+      masks[static_cast<size_t>(k)].push_back((v0 + i / bw) * w + u0 + i % bw);
+    }
+  }
+  for (std::vector<int>& m : masks) std::sort(m.begin(), m.end());
+  return masks;
 }
 
 ObjectState segmentObject(const Segment& s, const Pose& T_world_region, double cell, double step) {

@@ -62,6 +62,16 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o);
 /// measures what segmentDepth loses, apart from what grasping loses.
 Segmentation segmentLabels(const Frame& frame, const SegmentationOptions& o);
 
+/// Each segment's instance mask (pixels v * width + u, ascending), as an instance segmentation is
+/// scored (BOP's visible masks hold an object's pixels whatever the sensor measured there): the
+/// segment's own pixels, and the pixels of no depth about it (a stereo camera's dropout at depth
+/// edges, where a thin wall can lose most of its pixels). In each of `passes` rounds, a pixel of no
+/// depth goes to the segment that most of its 3 x 3 neighbours belong to, unless as many or more of
+/// them are pixels of depth in no segment (the floor, a patch too small to be an object); a tie
+/// between segments goes to the first. Reads only the depth; the segments' points are not changed
+/// (nothing a trial decides reads the masks: they are scored, and drawn in pictures).
+std::vector<std::vector<int>> segmentMasks(const Frame& frame, const std::vector<Segment>& segments, int passes = 3);
+
 /// What the robot knows of a segment's object, having no model of it: the columns under what the
 /// camera saw of it (what is under a seen surface is unknown, so taken as occupied), as an
 /// occupancy map of the bin would hold it. In the region's frame (z up from its floor), turned to
