@@ -223,9 +223,11 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
 Score scorePiles(int piles, int width, int height, bool verbose, bool labels = false) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score score;
-  for (int t = 0; t < piles; ++t) scorePile(*w, 1, static_cast<uint64_t>(t), width, height, score, verbose, labels);
-  std::printf("%s: %d piles at %dx%d, seed 1: %d segments, %d false (by the segments' own pixels: %d); %.1f ms a view, the masks %.2f ms\n",
-              labels ? "the labels' oracle" : "the depth", piles, width, height, score.segments, score.false_segments,
+  const char* seed_env = std::getenv("MM_SEED");  // 1 unless given
+  const uint64_t seed = seed_env ? std::strtoull(seed_env, nullptr, 10) : 1;
+  for (int t = 0; t < piles; ++t) scorePile(*w, seed, static_cast<uint64_t>(t), width, height, score, verbose, labels);
+  std::printf("%s: %d piles at %dx%d, seed %llu: %d segments, %d false (by the segments' own pixels: %d); %.1f ms a view, the masks %.2f ms\n",
+              labels ? "the labels' oracle" : "the depth", piles, width, height, static_cast<unsigned long long>(seed), score.segments, score.false_segments,
               score.false_pixels, 1e3 * score.seconds / std::max(1, score.views), 1e3 * score.mask_seconds / std::max(1, score.views));
   for (const auto& [grade, g] : score.grades)
     std::printf("  %-7s objects %3d, visible >= 0.5: %3d, found %3d (%.1f%%; by the segments' own pixels %3d, %.1f%%); no depth: %.1f%% of their pixels\n",
