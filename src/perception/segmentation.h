@@ -16,7 +16,12 @@
 
 namespace mm {
 
+/// How the points are cut into segments: supervoxels and LCCP (the default), or, measured against
+/// it (docs/measurements/perception.md), region growing or clustering by distance and normals.
+enum class SegmentationMethod { kLccp, kRegionGrowing, kNormalClusters };
+
 struct SegmentationOptions {
+  SegmentationMethod method = SegmentationMethod::kLccp;
   // Where to look: the bin's floor frame (z up), its footprint's half sizes, and how high above
   // its floor (the tallest object).
   Pose T_world_region = Pose::Identity();
@@ -32,6 +37,14 @@ struct SegmentationOptions {
   double smoothness = 0.0;             ///< LCCP's smoothness threshold (0: no smoothness check)
   int k_factor = 0;                    ///< extended convexity: common neighbours convex to both (0: none)
   int min_supervoxels = 3;             ///< a segment of at most this many supervoxels joins its largest neighbour (LCCP's rule)
+  // Region growing (PCL's RegionGrowing; its names) and clustering with normals (PCL's
+  // ConditionalEuclideanClustering), each at the best of the settings measured.
+  int grow_neighbours = 32;            ///< region growing: the nearest points a normal is fitted to, and its neighbours
+  double grow_angle = 12.0;            ///< [deg] region growing: neighbours join while their normals are this close
+  double grow_curvature = 1.0;         ///< region growing: a point of less curvature grows the region on
+  int cluster_neighbours = 64;         ///< clustering: the nearest points a normal is fitted to
+  double cluster_angle = 25.0;         ///< [deg] clustering: neighbours join while their normals are this close ...
+  double cluster_tolerance = 0.0055;   ///< [m] ... and they are this close
   int min_pixels = 30;                 ///< segments of fewer pixels are no object (Segmentation::small) ...
   int min_obstacle_pixels = 8;         ///< ... and of fewer than this, or whose top is ...
   double min_obstacle_height = 0.012;  ///< [m] ... lower than this above the floor, the depth's noise (dropped)
