@@ -275,7 +275,16 @@ std::vector<std::vector<int>> segmentMasks(const Frame& frame, const std::vector
   std::vector<std::vector<int>> masks;
   for (const Segment& s : segments) masks.push_back(s.pixels);
   const int w = frame.camera.width, h = frame.camera.height;
-  if (segments.empty() || passes <= 0 || frame.depth.size() != static_cast<size_t>(w) * static_cast<size_t>(h)) return masks;
+  if (segments.empty() || passes <= 0 || w <= 0 || h <= 0 || frame.depth.size() != static_cast<size_t>(w) * static_cast<size_t>(h)) return masks;
+  passes = std::min(passes, std::max(w, h));  // no pass past the image's size takes a pixel
+  const int n_pixels = w * h;
+  bool any = false;
+  for (const Segment& s : segments)
+    for (int p : s.pixels) {
+      if (p < 0 || p >= n_pixels) throw std::invalid_argument("segmentMasks: a segment's pixel is outside the image");
+      any = true;
+    }
+  if (!any) return masks;
   // The labels over the segments' bounding rectangle, passes + 1 wider (no pass takes a pixel
   // further out, and every pixel a pass may take has its neighbours inside):
   // a segment's index, kNone (depth, in no segment) or kUnknown (no depth, not yet taken).

@@ -8,6 +8,8 @@
 //   between them is convex or smooth -> segments, each the pixels of its points.
 // Reads only the frame's depth and its camera (the extrinsics as calibrated) and the bin's known
 // geometry. Every PCL call runs on this thread; the same image gives the same segments.
+// SegmentationOptions::method picks instead region growing or clustering with normals, the
+// alternatives LCCP was measured against (docs/measurements/perception.md).
 #pragma once
 #include <vector>
 
@@ -41,7 +43,7 @@ struct SegmentationOptions {
   // ConditionalEuclideanClustering), each at the best of the settings measured.
   int grow_neighbours = 32;            ///< region growing: the nearest points a normal is fitted to, and its neighbours
   double grow_angle = 12.0;            ///< [deg] region growing: neighbours join while their normals are this close
-  double grow_curvature = 1.0;         ///< region growing: a point of less curvature grows the region on
+  double grow_curvature = 1.0;         ///< region growing: a point of less curvature grows the region on (PCL's curvature is at most 1/3: 1, no test)
   int cluster_neighbours = 64;         ///< clustering: the nearest points a normal is fitted to
   double cluster_angle = 25.0;         ///< [deg] clustering: neighbours join while their normals are this close ...
   double cluster_tolerance = 0.0055;   ///< [m] ... and they are this close
@@ -62,7 +64,7 @@ struct Segmentation {
   std::vector<Segment> segments;  ///< by their first pixel
   std::vector<Segment> small;     ///< too small to be an object, seen all the same (obstacles), by their first pixel
   int points = 0;                 ///< the pixels inside the bin, above its floor
-  int supervoxels = 0;
+  int supervoxels = 0;            ///< LCCP's (0 with the other methods)
   double seconds = 0;             ///< wall clock (benchmarks print it; nothing decides by it)
 };
 
@@ -82,7 +84,7 @@ Segmentation segmentLabels(const Frame& frame, const SegmentationOptions& o);
 /// depth goes to the segment that most of its 3 x 3 neighbours belong to, unless as many or more of
 /// them are pixels of depth in no segment (the floor, a patch too small to be an object); a tie
 /// between segments goes to the first. Reads only the depth; the segments' points are not changed
-/// (nothing a trial decides reads the masks: they are scored, and drawn in pictures).
+/// (nothing a trial decides reads the masks: they are what segmentation is scored by).
 std::vector<std::vector<int>> segmentMasks(const Frame& frame, const std::vector<Segment>& segments, int passes = 3);
 
 /// What the robot knows of a segment's object, having no model of it: the columns under what the

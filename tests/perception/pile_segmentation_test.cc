@@ -67,6 +67,10 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
   so.settle_time = 2.0;
   Rng rng = Rng::stream(seed, trial, Purpose::kScene);
   const SpawnResult r = spawnObjects(w, panda(), T_bin, half, rng, so);
+  if (!r.ok && verbose) {  // the long measurement (MM_PILES) goes on without it: seed 1's pile 38 does not spawn
+    std::printf("  pile %llu not scored: %s\n", static_cast<unsigned long long>(trial), r.reason.c_str());
+    return;
+  }
   ASSERT_TRUE(r.ok) << "pile " << trial << ": " << r.reason;
   w.updateKinematics();
   const CameraModel cam = renderer().camera(w, "overhead_camera", width, height, "(test)");
@@ -84,6 +88,8 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
   // and MM_TOLERANCE (clustering) for settings other than their defaults.
   if (const char* m = std::getenv("MM_SEGMENTER")) {
     const std::string name = m;
+    ASSERT_TRUE(name == "lccp" || name == "region_growing" || name == "normal_clusters")
+        << "MM_SEGMENTER=" << name << ": expected lccp, region_growing or normal_clusters";
     o.method = name == "region_growing" ? SegmentationMethod::kRegionGrowing
                : name == "normal_clusters" ? SegmentationMethod::kNormalClusters : SegmentationMethod::kLccp;
     const bool grow = o.method == SegmentationMethod::kRegionGrowing;
@@ -262,8 +268,10 @@ TEST(PileSegmentation, FindsTheVisibleUnknownObjectsOfDroppedPiles) {
   int visible = 0, found = 0;
   for (const auto& [grade, g] : s.grades) visible += g.visible, found += g.found;
   ASSERT_GT(visible, 0);
+  if (std::getenv("MM_SEGMENTER")) return;  // an alternative measured: LCCP's figures below are not its
   // Seed 1's first four piles today, by the masks: 33 of the 34 visible found, 5 false segments of
-  // 38 (by the segments' own pixels: 30, and 8 false; 40 piles: docs/measurements/perception.md).
+  // 38 (by the segments' own pixels: 30, and 8 false; seed 1's 39 piles that spawn of 40:
+  // docs/measurements/perception.md).
   // The target (95% of the simpler grades found, 85% of the hollow ones, at most 2% of segments
   // false) is not reached yet.
   EXPECT_GE(found, 0.85 * visible);
@@ -272,7 +280,7 @@ TEST(PileSegmentation, FindsTheVisibleUnknownObjectsOfDroppedPiles) {
 
 // The alternatives LCCP was measured against (docs/measurements/perception.md) run, give the same
 // segments for the same image (scorePile segments each view twice), and find objects; fewer than
-// LCCP on the 40 piles of the table (there 81.7% and 63.1% of the visible, against 88.6%).
+// LCCP on seed 1's piles of the table (there 81.7% and 63.1% of the visible, against 88.6%).
 TEST(PileSegmentation, RegionGrowingAndClusteringWithNormalsRunAndRepeat) {
   const int piles = testing_sanitized::sanitizedOr(1, 2);
   const Score clusters = scorePiles(piles, 640, 480, false, false, SegmentationMethod::kNormalClusters);
@@ -297,14 +305,35 @@ TEST(PileSegmentation, TheLabelsOracleFindsEveryVisibleObjectAndNoFalseSegment) 
   EXPECT_EQ(s.false_segments, 0);
 }
 
-// The masks (segmentMasks) on a drawn depth image of 12 x 8 pixels: the floor at 1 m, segment A
-// a block of 5 x 4 pixels with a hole of no depth in it, its left column of no depth where it
-// meets the floor (a depth edge's dropout), and segment B two pixels right of A, the column
-// between them of no depth. A takes its hole; of the column by the floor, the pixels with more
-// of A about them than of the floor; A and B share the column between them by their neighbours.
+// A drawn depth image: '.' the floor (depth), 'a' / 'b' segment A's or B's pixel (depth), '0' no
+// depth; the segments and the frame.
+struct DrawnView {
+  Frame frame;
+  std::vector<Segment> segments;
+  int width = 0;
+  bool in(const std::vector<int>& mask, int u, int v) const { return std::binary_search(mask.begin(), mask.end(), v * width + u); }
+};
+DrawnView drawnView(const std::vector<std::string>& rows) {
+  DrawnView d;
+  d.width = static_cast<int>(rows[0].size());
+  d.frame.camera.width = d.width, d.frame.camera.height = static_cast<int>(rows.size());
+  d.segments.resize(2);
+  for (int v = 0; v < d.frame.camera.height; ++v)
+    for (int u = 0; u < d.width; ++u) {
+      const char c = rows[static_cast<size_t>(v)][static_cast<size_t>(u)];
+      d.frame.depth.push_back(c == '0' ? 0.0f : 1.0f);
+      if (c == 'a' || c == 'b') d.segments[c == 'a' ? 0 : 1].pixels.push_back(v * d.width + u);
+    }
+  return d;
+}
+
+// The masks (segmentMasks) on drawn depth images. In the first, of 12 x 8 pixels: segment A a
+// block of 4 x 4 pixels with a hole of no depth in it, its left column of no depth where it meets
+// the floor (a depth edge's dropout), and segment B two pixels right of A, the column between
+// them of no depth. A takes its hole; none of the column by the floor (as much floor about each
+// pixel as A, or more); A and B share the column between them by their neighbours.
 TEST(PileSegmentation, AMaskTakesThePixelsOfNoDepthItsSegmentHoldsAndNotTheFloors) {
-  // Rows, top down: '.' floor (depth), 'a' / 'b' a segment's pixel (depth), '0' no depth.
-  const std::vector<std::string> rows{
+  const DrawnView d = drawnView({
       "............",  //
       "..0aaaa0bb..",  //
       "..0a0aa0bb..",  //
@@ -312,34 +341,50 @@ TEST(PileSegmentation, AMaskTakesThePixelsOfNoDepthItsSegmentHoldsAndNotTheFloor
       "..0aaaa0bb..",  //
       "............",  //
       "............",  //
-      "............"};
-  Frame frame;
-  frame.camera.width = 12, frame.camera.height = 8;
-  std::vector<Segment> segments(2);
-  for (int v = 0; v < 8; ++v)
-    for (int u = 0; u < 12; ++u) {
-      const char c = rows[static_cast<size_t>(v)][static_cast<size_t>(u)];
-      frame.depth.push_back(c == '0' ? 0.0f : 1.0f);
-      if (c == 'a' || c == 'b') segments[c == 'a' ? 0 : 1].pixels.push_back(v * 12 + u);
-    }
-  const std::vector<std::vector<int>> masks = segmentMasks(frame, segments);
+      "............"});
+  const std::vector<std::vector<int>> masks = segmentMasks(d.frame, d.segments);
   ASSERT_EQ(masks.size(), 2u);
-  auto at = [](int u, int v) { return v * 12 + u; };
-  auto in = [&](int k, int u, int v) { return std::binary_search(masks[static_cast<size_t>(k)].begin(), masks[static_cast<size_t>(k)].end(), at(u, v)); };
-  for (int k = 0; k < 2; ++k) EXPECT_TRUE(std::is_sorted(masks[static_cast<size_t>(k)].begin(), masks[static_cast<size_t>(k)].end()));
-  EXPECT_TRUE(in(0, 4, 2));  // the hole: all eight neighbours A's
+  for (const std::vector<int>& m : masks) EXPECT_TRUE(std::is_sorted(m.begin(), m.end()));
+  EXPECT_TRUE(d.in(masks[0], 4, 2));  // the hole: all eight neighbours A's
   // The left column: (2, 2) and (2, 3) have three of A about them against three of the floor's
-  // and two of no depth: a tie, the floor's. (2, 1) and (2, 4) have more floor. None is A's.
-  for (int v = 1; v <= 4; ++v) EXPECT_FALSE(in(0, 2, v)) << v;
+  // and two of no depth: a tie, the floor's. (2, 1) and (2, 4) have five of the floor's.
+  for (int v = 1; v <= 4; ++v) EXPECT_FALSE(d.in(masks[0], 2, v)) << v;
   // The column between A and B: (7, 2) and (7, 3) have three of each about them, a tie between
-  // segments, the first's; (7, 1) and (7, 4) have three of the floor's against two and two.
-  EXPECT_TRUE(in(0, 7, 2) && in(0, 7, 3));
-  EXPECT_FALSE(in(0, 7, 1) || in(1, 7, 1) || in(0, 7, 4) || in(1, 7, 4));
+  // segments, the first's. (7, 1) and (7, 4) have three of the floor's against two and two, and
+  // at the second pass three against A's three: a tie, the floor's.
+  EXPECT_TRUE(d.in(masks[0], 7, 2) && d.in(masks[0], 7, 3));
+  EXPECT_FALSE(d.in(masks[0], 7, 1) || d.in(masks[1], 7, 1) || d.in(masks[0], 7, 4) || d.in(masks[1], 7, 4));
   // Nothing else is added: A is its 15 pixels, its hole and two of the column; B is its own.
-  EXPECT_EQ(masks[0].size(), segments[0].pixels.size() + 3);
-  EXPECT_EQ(masks[1], segments[1].pixels);
+  EXPECT_EQ(masks[0].size(), d.segments[0].pixels.size() + 3);
+  EXPECT_EQ(masks[1], d.segments[1].pixels);
   // No pass: the segments' own pixels.
-  EXPECT_EQ(segmentMasks(frame, segments, 0)[0], segments[0].pixels);
+  EXPECT_EQ(segmentMasks(d.frame, d.segments, 0)[0], d.segments[0].pixels);
+
+  // The second, of 20 x 12 pixels, the segment away from the image's corner: a strip of no depth
+  // two pixels wide through segment A (a thin wall's dropout). The first pass takes its three
+  // middle rows (three of A about each, no floor); its end pixels have three of the floor's about
+  // them against two of A's, and only after that pass four of A's: the second pass takes them.
+  const DrawnView e = drawnView({
+      "....................",  //
+      "....................",  //
+      "....................",  //
+      "....................",  //
+      "........aaaa00aa....",  //
+      "........aaaa00aa....",  //
+      "........aaaa00aa....",  //
+      "........aaaa00aa....",  //
+      "........aaaa00aa....",  //
+      "....................",  //
+      "....................",  //
+      "...................."});
+  const std::vector<int> one = segmentMasks(e.frame, e.segments, 1)[0], all = segmentMasks(e.frame, e.segments)[0];
+  for (int u : {12, 13}) {
+    for (int v = 5; v <= 7; ++v) EXPECT_TRUE(e.in(one, u, v)) << u << " " << v;
+    for (int v : {4, 8}) EXPECT_FALSE(e.in(one, u, v)) << u << " " << v;  // a pass reads the labels as they were before it
+    for (int v = 4; v <= 8; ++v) EXPECT_TRUE(e.in(all, u, v)) << u << " " << v;
+  }
+  EXPECT_EQ(one.size(), e.segments[0].pixels.size() + 6);
+  EXPECT_EQ(all.size(), e.segments[0].pixels.size() + 10);
 }
 
 // The arm with its TCP 3 cm over the bin floor's centre, pointing down as at home, the fingers
