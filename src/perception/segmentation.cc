@@ -79,6 +79,14 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
       pixel_of.push_back(i);
     }
   out.points = static_cast<int>(pixel_of.size());
+  // The cloud's point k into segment s: its pixel, its point in the world, the segment's top.
+  auto addPoint = [&](Segment& s, size_t k) {
+    const pcl::PointXYZ& p = (*cloud)[k];
+    const Vec3 p_world = cam.T_world_camera * Vec3(p.x, p.y, p.z);
+    s.pixels.push_back(pixel_of[k]);
+    s.points.push_back(p_world);
+    s.top = std::max(s.top, (T_region_world * p_world).z());
+  };
   if (cloud->empty()) {
     out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return out;
@@ -128,13 +136,7 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
     for (size_t c = 0; c < clusters.size(); ++c) {
       std::vector<int> idx(clusters[c].indices.begin(), clusters[c].indices.end());
       std::sort(idx.begin(), idx.end());  // pixel_of ascends with the index
-      for (int k : idx) {
-        const pcl::PointXYZ& p = (*cloud)[static_cast<size_t>(k)];
-        const Vec3 p_world = cam.T_world_camera * Vec3(p.x, p.y, p.z);
-        segments[c].pixels.push_back(pixel_of[static_cast<size_t>(k)]);
-        segments[c].points.push_back(p_world);
-        segments[c].top = std::max(segments[c].top, (T_region_world * p_world).z());
-      }
+      for (int k : idx) addPoint(segments[c], static_cast<size_t>(k));
     }
     keepSegments(segments, o, out);
     out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -230,12 +232,7 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
   std::vector<Segment> segments(static_cast<size_t>(n));
   for (size_t k = 0; k < labelled->size(); ++k) {
     if (seg_of_point[k] < 0) continue;
-    Segment& s = segments[static_cast<size_t>(root(seg_of_point[k]))];
-    s.pixels.push_back(pixel_of[k]);
-    const pcl::PointXYZ& p = (*cloud)[k];
-    const Vec3 p_world = cam.T_world_camera * Vec3(p.x, p.y, p.z);
-    s.points.push_back(p_world);
-    s.top = std::max(s.top, (T_region_world * p_world).z());
+    addPoint(segments[static_cast<size_t>(root(seg_of_point[k]))], k);
   }
   keepSegments(segments, o, out);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
