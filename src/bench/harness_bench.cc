@@ -243,10 +243,7 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
         // Objects with no model (camera mode): a trial's view is segmented first, and the segments'
         // columns (and the patches no segment explains) are the boxes the hands must keep out of.
         const bool segmented = cell.perception.unknown_objects;
-        SegmentationOptions so;
-        so.T_world_region = cell.perception.T_world_crop;
-        so.region_half = cell.perception.crop_half;
-        so.region_height = cell.perception.crop_height;
+        const SegmentationOptions so = segmentationOptions(cell.perception);
         Rng cloud_noise(2);  // its own draws: the known-object line's stay as they were
         Rng rng(1);
         CameraPerceptionOptions co;

@@ -218,6 +218,7 @@ Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& worl
   }
   // Generated objects and meshes have no model the camera's perception fits: it segments them.
   c.perception.unknown_objects = c.spawn.generated.enabled();
+  if (c.spawn.generated.enabled()) c.perception.object_length = c.spawn.generated.max_extent, c.perception.object_width = c.spawn.generated.max_width;
   for (const std::string& k : c.spawn.kinds) {
     const ObjectKind* kind = c.spawn.loaded.find(k);
     if (kind->shape == ObjectShape::kMesh) c.perception.unknown_objects = true;

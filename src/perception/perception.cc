@@ -46,6 +46,20 @@ void PerceptionOptions::declare(ConfigArchive& a) {
           "camera mode: the chance a pixel at a depth edge (its 3x3 neighbourhood spanning more than 1 cm) has no depth, as stereo matching fails there");
 }
 
+SegmentationOptions segmentationOptions(const PerceptionOptions& o) {
+  SegmentationOptions so;
+  so.T_world_region = o.T_world_crop;
+  so.region_half = o.crop_half;
+  so.region_height = o.crop_height;
+  so.max_object_length = o.object_length;
+  so.max_object_width = o.object_width;
+  // Known objects: the models pose LCCP's own segments (a pose takes the pixels it explains, and
+  // what it leaves is posed again), as their measurements were made; the joins were measured on
+  // generated objects only.
+  if (o.known_models) so.sanity_join = 0;
+  return so;
+}
+
 bool insideCrop(const ObjectState& o, const PerceptionOptions& opt) {
   if (opt.crop_half.x() <= 0 || opt.crop_half.y() <= 0) return true;
   const Vec3 p = opt.T_world_crop.inverse() * o.T_world_object.translation();

@@ -10,6 +10,7 @@
 #include "core/geometry.h"
 #include "core/rng.h"
 #include "perception/camera_perception.h"
+#include "perception/segmentation.h"
 
 namespace mm {
 
@@ -49,6 +50,10 @@ struct PerceptionOptions {
   /// The bin holds objects the robot has no model of (generated, or meshes): the depth is cut into
   /// segments (perception/segmentation.h), each known as the columns under its points (segmentObject).
   bool unknown_objects = false;
+  /// [m] What one of the bin's objects can measure seen from above, along and across (a generated
+  /// set's max_extent and max_width; 0: not known): neighbouring segments that together fit are
+  /// taken for pieces of one object (SegmentationOptions::max_object_length; the campaign sets it).
+  double object_length = 0, object_width = 0;
   /// The depth cut into segments (segmentDepth); or an oracle's, the renderer's per-object labels
   /// (segmentLabels), which no real camera gives: it measures what segmentation loses.
   SegmentationSource segmentation = SegmentationSource::kDepth;
@@ -58,6 +63,10 @@ struct PerceptionOptions {
   bool known_models = false;
   std::shared_ptr<const ModelPoseEstimator> models;  ///< the kinds' models, when known_models (the campaign builds it)
 };
+
+/// How camera mode segments the depth of the bin (segmentDepth): the crop's region, what an object
+/// can measure, and for known objects (known_models) no join of faces seen edge on.
+SegmentationOptions segmentationOptions(const PerceptionOptions& o);
 
 /// True when the robot knows the objects only as the depth's segments (camera mode, no model):
 /// their truth matched loosely, no orientation of theirs known.

@@ -5,7 +5,10 @@
 //   depth -> the pixels' points in the world -> those inside the bin (its footprint less the walls'
 //   margin, above the floor's noise, below the tallest object) -> supervoxels (voxels grown from
 //   seeds on a grid, by distance and normals) -> neighbouring supervoxels joined where the surface
-//   between them is convex or smooth -> segments, each the pixels of its points.
+//   between them is convex or smooth -> LCCP's segments joined where the connections between them
+//   are mostly convex ones only its sanity criterion refused -> neighbouring segments joined while
+//   their points together fit what an object can measure seen from above -> segments, each the
+//   pixels of its points.
 // Reads only the frame's depth and its camera (the extrinsics as calibrated) and the bin's known
 // geometry. Every PCL call runs on this thread; the same image gives the same segments.
 // SegmentationOptions::method picks instead region growing or clustering with normals, the
@@ -39,6 +42,16 @@ struct SegmentationOptions {
   double smoothness = 0.0;             ///< LCCP's smoothness threshold (0: no smoothness check)
   int k_factor = 0;                    ///< extended convexity: common neighbours convex to both (0: none)
   int min_supervoxels = 3;             ///< a segment of at most this many supervoxels joins its largest neighbour (LCCP's rule)
+  /// Two of LCCP's segments join where the connections between them that only LCCP's sanity
+  /// criterion refused are at least one, and at least this many times the concave ones (0: never).
+  double sanity_join = 2.0;
+  /// [m] What an object of the bin can measure seen from above: the principal extents of its
+  /// points over the floor, along (length) and across (width). Two neighbouring segments (through
+  /// their supervoxels, or their instance masks touching) whose points together fit in these are
+  /// joined, the pair of the shortest union first, until no pair fits (0: no such join). From the
+  /// objects' own limits (objects.generated's max_extent and max_width), as the crop's height is
+  /// from the tallest object.
+  double max_object_length = 0, max_object_width = 0;
   // Region growing (PCL's RegionGrowing; its names) and clustering with normals (PCL's
   // ConditionalEuclideanClustering), each at the best of the settings measured.
   int grow_neighbours = 32;            ///< region growing: the nearest points a normal is fitted to, and its neighbours
@@ -84,7 +97,8 @@ Segmentation segmentLabels(const Frame& frame, const SegmentationOptions& o);
 /// depth goes to the segment that most of its 3 x 3 neighbours belong to, unless as many or more of
 /// them are pixels of depth in no segment (the floor, a patch too small to be an object); a tie
 /// between segments goes to the first. Reads only the depth; the segments' points are not changed
-/// (nothing a trial decides reads the masks: they are what segmentation is scored by).
+/// (the masks are what segmentation is scored by; segmentDepth's join by size reads them only to
+/// find which segments touch).
 std::vector<std::vector<int>> segmentMasks(const Frame& frame, const std::vector<Segment>& segments, int passes = 3);
 
 /// What the robot knows of a segment's object, having no model of it: the columns under what the

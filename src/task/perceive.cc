@@ -208,10 +208,7 @@ PerceptionResult perceiveByCamera(TrialContext& ctx) {
   pose_view.time = ctx.simTime();
   pose_view.width = frame.camera.width;
   if (o.unknown_objects) {  // no model: each segment of the depth, as the columns under its points
-    SegmentationOptions so;
-    so.T_world_region = o.T_world_crop;
-    so.region_half = o.crop_half;
-    so.region_height = o.crop_height;
+    const SegmentationOptions so = segmentationOptions(o);
     const Segmentation segments = o.segmentation == SegmentationSource::kLabels ? segmentLabels(frame, so) : segmentDepth(frame, so);
     // Known objects: the segments posed by their models (the pixels a pose explains are its; what
     // it leaves of its segment is posed again), each known as the model it is; what no model

@@ -162,6 +162,7 @@ void scorePile(SimWorld& w, const ModelPoseEstimator& est, uint64_t trial, int w
   o.T_world_region = T_bin;
   o.region_half = half;
   o.region_height = 0.15;
+  o.sanity_join = 0;  // LCCP's own segments, as camera mode gives them to the models (segmentationOptions)
   const Segmentation seg = labels ? segmentLabels(frame, o) : segmentDepth(frame, o);
   {
     std::vector<ModelPose> alone;
