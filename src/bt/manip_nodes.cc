@@ -649,7 +649,9 @@ void registerTaskNodes(Factory& f, TaskNodeEnv& env) {
                   "Plans and executes a collision-free move to the home configuration (with a held object attached); from a "
                   "start the planner refuses (within the padding of an obstacle, or inside an object the hand pushed), the "
                   "hand first leaves straight up as MoveToSafe does.");
-  add<MoveToSafe>(f, env, "MoveToSafe", "A straight move of the TCP up by motion.retreat_distance from where it is.");
+  add<MoveToSafe>(f, env, "MoveToSafe",
+                  "A straight move of the TCP up by motion.retreat_distance from where it is; from inside a static part of "
+                  "the cell (a finger left in a wall), first a short horizontal move out of it, the way it leaves soonest.");
   add<OpenGripper>(f, env, "OpenGripper", "Opens the gripper fully; a held object is let go of (placed, if a place plan brought it over its target).");
   add<CloseGripper>(f, env, "CloseGripper",
                     "Closes the gripper with the grasp force; a detected object left between the fingers becomes the held one.");

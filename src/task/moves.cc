@@ -23,22 +23,95 @@ namespace {
 // planner would call a collision from the start. An object the hand starts inside (one it pushed,
 // perceived where it was) is left out: going up is the way off it. `exclude`: an object not
 // checked at all (the one just let go of, still between the fingers).
-CartesianPath straightUp(TrialContext& ctx, double distance, int exclude) {
+//
+// A hand that starts inside a static part of the cell (a protective stop that left a finger in a
+// bin's wall) cannot go up through it, nor can the cell be ignored. As MoveIt's
+// FixStartStateCollision adapter moves an invalid start to a valid state nearby, the hand first
+// slides out sideways, horizontally, the way that leaves the part soonest (16 ways), then rises.
+// Deterministic (a fixed order of tries, no draws). The lines to run, in order; the last one's
+// `ok` and reason are the outcome.
+std::vector<CartesianPath> wayUp(TrialContext& ctx, double distance, int exclude) {
   PlanningScene s = planningScene(ctx, exclude, true);
   if (ctx.held < 0) s.finger_opening = ctx.gripper_opening;
   auto checker = makeChecker(ctx.options.checker, ctx.robot, s, 0.0);
+  const auto obstacleOf = [](const std::string& hit) {
+    const auto at = hit.find(" / ");
+    return hit.substr(at == std::string::npos ? 0 : at + 3);
+  };
+  std::string inside;  // the static part the hand starts inside, if any
   for (int k = 0; k < 4 && !checker->isValid(ctx.q_rest); ++k) {
-    const std::string hit = checker->lastCollision();
-    const std::string obstacle = hit.substr(hit.find(" / ") == std::string::npos ? 0 : hit.find(" / ") + 3);
-    if (std::none_of(ctx.objects.begin(), ctx.objects.end(), [&](const ObjectState& x) { return x.name == obstacle; })) break;
+    const std::string obstacle = obstacleOf(checker->lastCollision());
+    if (std::none_of(ctx.objects.begin(), ctx.objects.end(), [&](const ObjectState& x) { return x.name == obstacle; })) {
+      if (std::any_of(s.obstacles.begin(), s.obstacles.end(), [&](const Obstacle& x) { return x.name == obstacle; }))
+        inside = obstacle;
+      break;
+    }
     s.ignore.push_back(obstacle);
     checker = makeChecker(ctx.options.checker, ctx.robot, s, 0.0);
   }
-  Pose T_up = ctx.robot.fk(ctx.q_rest);
-  T_up.translation().z() += distance;
-  const CartesianPath up = planCartesianLine(ctx.robot, *checker, ctx.q_rest, T_up, ikNear(ctx), ctx.options.cartesian);
+  const Pose T0 = ctx.robot.fk(ctx.q_rest);
+  const auto lineUp = [&](const VecX& q_from, const Pose& T_from) {
+    Pose T_up = T_from;
+    T_up.translation().z() += distance;
+    return planCartesianLine(ctx.robot, *checker, q_from, T_up, ikNear(ctx), ctx.options.cartesian);
+  };
+  CartesianPath up = lineUp(ctx.q_rest, T0);
+  if (!up.ok && !inside.empty()) {
+    // How far the hand must move each way to be clear of that part alone: the shortest is the way
+    // out, through the part's nearest face (a way through a thin wall is longer by its thickness).
+    // The line then goes on 5-15 mm past it, checked against everything else, and must end free.
+    constexpr int kWays = 16;
+    constexpr double kStep = 0.001, kFarthest = 0.04;
+    const auto way = [](int k) { return Vec3(std::cos(2 * M_PI * k / kWays), std::sin(2 * M_PI * k / kWays), 0.0); };
+    PlanningScene alone = s, loose = s;
+    alone.obstacles.clear();
+    for (const Obstacle& x : s.obstacles)
+      if (x.name == inside) alone.obstacles.push_back(x);
+    loose.ignore.push_back(inside);
+    auto part = makeChecker(ctx.options.checker, ctx.robot, alone, 0.0);
+    auto beside = makeChecker(ctx.options.checker, ctx.robot, loose, 0.0);
+    std::vector<std::pair<double, int>> exits;  // (distance, way)
+    for (int k = 0; k < kWays; ++k) {
+      VecX q = ctx.q_rest, next;
+      for (int i = 1; i * kStep <= kFarthest + 1e-9; ++i) {
+        Pose T = T0;
+        T.translation() += i * kStep * way(k);
+        if (!ikNear(ctx)(T, q, next)) break;
+        q = next;
+        if (part->isValid(q)) {
+          exits.emplace_back(i * kStep, k);
+          break;
+        }
+      }
+    }
+    std::sort(exits.begin(), exits.end());
+    for (const auto& [d, k] : exits)
+      for (const double margin : {0.005, 0.01, 0.015}) {
+        Pose T = T0;
+        T.translation() += (d + margin) * way(k);
+        const CartesianPath side = planCartesianLine(ctx.robot, *beside, ctx.q_rest, T, ikNear(ctx), ctx.options.cartesian);
+        if (!side.ok || !checker->isValid(side.waypoints.back())) continue;
+        CartesianPath then = lineUp(side.waypoints.back(), T);
+        if (!then.ok) continue;
+        ctx.out.collision_checks += checker->checks() + part->checks() + beside->checks();
+        return {side, then};
+      }
+    ctx.out.collision_checks += part->checks() + beside->checks();
+  }
   ctx.out.collision_checks += checker->checks();
-  return up;
+  return {up};
+}
+
+// The lines' trajectories, one after the other; empty when one has no smooth timing.
+std::vector<JointTrajectory> trajectoriesOf(TrialContext& ctx, const std::vector<CartesianPath>& lines) {
+  std::vector<JointTrajectory> out;
+  for (const CartesianPath& line : lines) {
+    const VecX from = out.empty() ? line.waypoints.front() : endOf(out.back());
+    out.push_back(cartesianTrajectory(ctx.robot, line, ikNear(ctx), ctx.options.scaling, ctx.options.cartesian,
+                                      ctx.hw.period(), &from));
+    if (out.back().empty()) return {};
+  }
+  return out;
 }
 
 }  // namespace
@@ -59,20 +132,22 @@ Failure planHome(TrialContext& ctx, Plan& out) {
   if ((ctx.q_rest - ctx.robot.home()).cwiseAbs().maxCoeff() > 1e-9) {
     JointTrajectory traj;
     f = connect(ctx, "plan_home", *checker, s, ctx.q_rest, ctx.robot.home(), traj);
-    JointTrajectory leave;
+    std::vector<JointTrajectory> leave;
     if (!f.ok() && f.kind == FailureKind::kCollision && f.reason.rfind("start state invalid", 0) == 0) {
       // A start within the padding of an obstacle, or inside an object it pushed (as MoveIt's
       // FixStartStateCollision adapter, which moves the start to a valid state nearby): the hand
-      // first leaves straight up, checked as MoveToSafe's, and the planner starts where that ends.
-      const CartesianPath up = straightUp(ctx, o.retreat_distance, -1);
-      if (up.ok) leave = cartesianTrajectory(ctx.robot, up, ikNear(ctx), o.scaling, o.cartesian, ctx.hw.period());
-      if (!leave.empty() && checker->isValid(endOf(leave))) {
-        const Failure again = connect(ctx, "plan_home", *checker, s, endOf(leave), ctx.robot.home(), traj);
+      // first leaves straight up, checked as MoveToSafe's (out of a static part first, if it is
+      // inside one), and the planner starts where that ends.
+      const std::vector<CartesianPath> up = wayUp(ctx, o.retreat_distance, -1);
+      if (up.back().ok) leave = trajectoriesOf(ctx, up);
+      if (!leave.empty() && checker->isValid(endOf(leave.back()))) {
+        const Failure again = connect(ctx, "plan_home", *checker, s, endOf(leave.back()), ctx.robot.home(), traj);
         if (again.ok()) f = again;
       }
     }
     if (f.ok()) {
-      if (!leave.empty()) out.steps.push_back(trajectoryStep("retreat", std::move(leave), ctx.gripper_opening, ctx.held >= 0));
+      for (JointTrajectory& line : leave)
+        out.steps.push_back(trajectoryStep("retreat", std::move(line), ctx.gripper_opening, ctx.held >= 0));
       out.steps.push_back(trajectoryStep("return_home", std::move(traj), ctx.gripper_opening, ctx.held >= 0));
     }
   }
@@ -83,18 +158,17 @@ Failure planHome(TrialContext& ctx, Plan& out) {
 }
 
 Failure planRetreatUp(TrialContext& ctx, double distance, Plan& out) {
-  const TaskOptions& o = ctx.options;
   const auto t = Clock::now();
   StageRecord& st = ctx.stage("plan_safe");
   // The object just let go of stays between the fingers: not checked against them.
   const int just_placed = ctx.out.picks.empty() ? -1 : ctx.out.picks.back().object;
-  const CartesianPath up = straightUp(ctx, distance, just_placed);
+  const std::vector<CartesianPath> up = wayUp(ctx, distance, just_placed);
   Failure f;
-  JointTrajectory traj;
-  if (!up.ok) f = {"plan_safe", up.kind, up.reason};
+  std::vector<JointTrajectory> trajs;
+  if (!up.back().ok) f = {"plan_safe", up.back().kind, up.back().reason};
   else {
-    traj = cartesianTrajectory(ctx.robot, up, ikNear(ctx), o.scaling, o.cartesian, ctx.hw.period());
-    if (traj.empty()) f = {"plan_safe", FailureKind::kTimeParameterization, "no smooth time parameterization of the straight line"};
+    trajs = trajectoriesOf(ctx, up);
+    if (trajs.empty()) f = {"plan_safe", FailureKind::kTimeParameterization, "no smooth time parameterization of the straight line"};
   }
   st.compute_seconds = since(t);
   ctx.out.plan_place_time += st.compute_seconds;
@@ -103,8 +177,9 @@ Failure planRetreatUp(TrialContext& ctx, double distance, Plan& out) {
   out.q_start = ctx.q_rest;
   out.name = "safe";
   out.bucket = TimeBucket::kPlace;
-  out.q_end = endOf(traj);
-  out.steps.push_back(trajectoryStep("retreat", std::move(traj), ctx.gripper_opening, ctx.held >= 0));
+  out.q_end = endOf(trajs.back());
+  for (JointTrajectory& line : trajs)
+    out.steps.push_back(trajectoryStep("retreat", std::move(line), ctx.gripper_opening, ctx.held >= 0));
   return {};
 }
 
