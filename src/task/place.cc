@@ -146,10 +146,13 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   }
   std::stable_sort(options.begin(), options.end(), [](const Option& a, const Option& b) { return a.cost < b.cost; });
   Failure last{"place_pose_ik", FailureKind::kIk, "no IK solution for any place pose"};
+  // The first option whose hand rises from it with the planner's padding; else the first that
+  // rises with less (its fingers opening within millimetres of the tray's wall, which the arm's
+  // tracking error may close).
   bool found = false;
   VecX q_preplace;
-  CartesianPath descend, retreat;
-  double release_opening = travel;
+  CartesianPath descend, retreat, descend_chosen, retreat_chosen;
+  double release_opening = travel, opening_chosen = travel;
   Pose T_chosen = T_target;
   double turn_chosen = 0;
   for (const Option& option : options) {
@@ -182,6 +185,7 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
     std::vector<std::pair<double, double>> tries{{travel, o.padding}, {just, o.padding}};
     if (down_padding < o.padding) tries.push_back({just, down_padding});  // the fingertips near the tray's floor
     if (o.tight_margin > 0 && o.tight_margin < down_padding) tries.push_back({just, o.tight_margin});
+    double padding_used = 0;
     for (const auto& [opening, padding] : tries) {
       PlanningScene rs = planningScene(ctx, ctx.held, false);
       rs.finger_opening = opening;
@@ -189,17 +193,23 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
       retreat = planCartesianLine(ctx.robot, *retreating, descend.waypoints.back(), T_up, ikNear(ctx), o.cartesian);
       ctx.out.collision_checks += retreating->checks();
       release_opening = opening;
+      padding_used = padding;
       if (retreat.ok) break;
     }
     if (!retreat.ok) {
       last = {"retreat", retreat.kind, retreat.reason};
       continue;
     }
+    const bool roomy = padding_used >= o.padding;
+    if (found && !roomy) continue;  // the first one rising with less room is kept
     q_preplace = pre.q();
+    descend_chosen = descend;
+    retreat_chosen = retreat;
+    opening_chosen = release_opening;
     T_chosen = option.T_target;
     turn_chosen = option.turn;
     found = true;
-    break;
+    if (roomy) break;
   }
   if (!found) return done(last);
   st->compute_seconds = since(t);
@@ -216,11 +226,11 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   };
   if (!f.ok()) return done_connect(f);
   const double dt = ctx.hw.period();
-  JointTrajectory t_descend = cartesianTrajectory(ctx.robot, descend, ikNear(ctx), o.scaling, o.cartesian, dt);
+  JointTrajectory t_descend = cartesianTrajectory(ctx.robot, descend_chosen, ikNear(ctx), o.scaling, o.cartesian, dt);
   JointTrajectory t_retreat;
   if (!t_descend.empty()) {
     const VecX q_placed = endOf(t_descend);  // the retreat starts where the descent ends
-    t_retreat = cartesianTrajectory(ctx.robot, retreat, ikNear(ctx), o.scaling, o.cartesian, dt, &q_placed);
+    t_retreat = cartesianTrajectory(ctx.robot, retreat_chosen, ikNear(ctx), o.scaling, o.cartesian, dt, &q_placed);
   }
   if (t_descend.empty() || t_retreat.empty())
     return done_connect({t_descend.empty() ? "place" : "retreat", FailureKind::kTimeParameterization,
@@ -241,11 +251,11 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
   out.place_turn = turn_chosen;
   out.places = true;
   if (release) {
-    PlanStep open = gripperStep("open_gripper_release", q_down, release_opening);
+    PlanStep open = gripperStep("open_gripper_release", q_down, opening_chosen);
     open.release = true;
     out.steps.push_back(open);
     out.steps.push_back(markerStep("detach", PlanStep::Kind::kMarker));
-    out.steps.push_back(trajectoryStep("retreat", std::move(t_retreat), release_opening, false));
+    out.steps.push_back(trajectoryStep("retreat", std::move(t_retreat), opening_chosen, false));
     out.q_end = q_retreated;
   }
   if (ctx.faults) ctx.faults->onPlanned(ctx, out);
