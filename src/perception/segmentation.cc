@@ -93,6 +93,83 @@ void joinSanityRefused(const std::map<std::uint32_t, pcl::Supervoxel<pcl::PointX
   for (auto& [sv, seg] : segment_of) seg = find(seg);
 }
 
+std::pair<double, double> extentsFromAbove(const std::vector<Vec2>& a, const std::vector<Vec2>& b);
+
+// An LCCP segment larger than any object can be (its supervoxels' points, seen from above, do not
+// fit max_object_length by max_object_width) holds two objects or more: LCCP took the valley
+// between them, concave by less than its tolerance, for convex. It is cut again at connections
+// concave by more than recut_tolerance, and pieces of at most min_supervoxels join their largest
+// neighbour within it (smallest first, then the first), so that a cut leaves no crumbs. Each
+// segment's decision is its own, and every loop runs in the supervoxels' label order.
+void recutOversized(const std::map<std::uint32_t, pcl::Supervoxel<pcl::PointXYZ>::Ptr>& clusters,
+                    const std::multimap<std::uint32_t, std::uint32_t>& adjacency, const SegmentationOptions& o,
+                    const Pose& T_region_camera, std::map<std::uint32_t, std::uint32_t>& segment_of) {
+  std::map<std::uint32_t, std::vector<std::uint32_t>> members;  // segment -> its supervoxels
+  std::uint32_t next_label = 0;
+  for (const auto& [sv, seg] : segment_of) members[seg].push_back(sv), next_label = std::max(next_label, seg + 1);
+  auto fits = [&](const std::vector<std::uint32_t>& svs) {
+    std::vector<Vec2> xy;
+    for (std::uint32_t sv : svs) {
+      const auto c = clusters.find(sv);
+      if (c == clusters.end()) continue;
+      for (const pcl::PointXYZ& p : *c->second->voxels_) xy.push_back((T_region_camera * Vec3(p.x, p.y, p.z)).head<2>());
+    }
+    if (xy.size() < 2) return true;
+    const auto [length, width] = extentsFromAbove(xy, {});
+    return length <= o.max_object_length && width <= o.max_object_width;
+  };
+  for (const auto& [label, svs] : members) {
+    if (svs.size() < 2 || fits(svs)) continue;
+    const std::set<std::uint32_t> in(svs.begin(), svs.end());
+    std::set<std::pair<std::uint32_t, std::uint32_t>> edges;  // within the segment, each once
+    for (const auto& [a, b] : adjacency)
+      if (a != b && in.count(a) && in.count(b)) edges.insert(std::minmax(a, b));
+    std::map<std::uint32_t, std::uint32_t> parent;
+    for (std::uint32_t sv : svs) parent[sv] = sv;
+    auto find = [&](std::uint32_t x) {
+      while (parent[x] != x) x = parent[x];
+      return x;
+    };
+    auto unite = [&](std::uint32_t a, std::uint32_t b) {
+      const std::uint32_t ra = find(a), rb = find(b);
+      if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+    };
+    for (const auto& [a, b] : edges) {
+      const auto ca = clusters.find(a), cb = clusters.find(b);
+      if (ca != clusters.end() && cb != clusters.end() && judge(*ca->second, *cb->second, o.recut_tolerance) != Connection::kConcave) unite(a, b);
+    }
+    std::map<std::uint32_t, int> size;  // piece (its root) -> supervoxels
+    for (std::uint32_t sv : svs) ++size[find(sv)];
+    while (size.size() > 1) {
+      std::uint32_t small = 0;
+      int fewest = o.min_supervoxels + 1;
+      for (const auto& [r, n] : size)
+        if (n < fewest) small = r, fewest = n;
+      if (fewest > o.min_supervoxels) break;
+      std::uint32_t big = small;
+      for (const auto& [a, b] : edges) {
+        const std::uint32_t ra = find(a), rb = find(b);
+        if (ra == rb || (ra != small && rb != small)) continue;
+        const std::uint32_t other = ra == small ? rb : ra;
+        if (big == small || size[other] > size[big] || (size[other] == size[big] && other < big)) big = other;
+      }
+      if (big == small) break;  // no neighbour (cannot happen within one segment)
+      size[big] += size[small];
+      size.erase(small);
+      parent[small] = big;
+    }
+    if (size.size() < 2) continue;
+    // The piece of the segment's first supervoxel keeps its label; the others get new ones.
+    std::map<std::uint32_t, std::uint32_t> label_of;
+    for (std::uint32_t sv : svs) {
+      const std::uint32_t r = find(sv);
+      const auto it = label_of.try_emplace(r, label_of.empty() ? label : next_label).first;
+      if (it->second == next_label) ++next_label;
+      segment_of[sv] = it->second;
+    }
+  }
+}
+
 // The principal extents (major, minor) of points seen from above: the points' spread along the
 // eigenvectors of their covariance in the region's xy.
 std::pair<double, double> extentsFromAbove(const std::vector<Vec2>& a, const std::vector<Vec2>& b) {
@@ -309,6 +386,8 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
     lccp.segment();
     lccp.getSupervoxelToSegmentMap(segment_of);
     if (o.sanity_join > 0) joinSanityRefused(clusters, adjacency, o, segment_of);
+    if (o.recut_tolerance > 0 && o.max_object_length > 0 && o.max_object_width > 0)
+      recutOversized(clusters, adjacency, o, T_region_camera, segment_of);
   }
 
   // Segments numbered by their first pixel (PCL's labels depend on its visiting order).

@@ -6,7 +6,8 @@
 //   margin, above the floor's noise, below the tallest object) -> supervoxels (voxels grown from
 //   seeds on a grid, by distance and normals) -> neighbouring supervoxels joined where the surface
 //   between them is convex or smooth -> LCCP's segments joined where the connections between them
-//   are mostly convex ones only its sanity criterion refused -> neighbouring segments joined while
+//   are mostly convex ones only its sanity criterion refused -> a segment larger than any object
+//   cut again at a tighter concavity -> neighbouring segments joined while
 //   their points together fit what an object can measure seen from above -> segments, each the
 //   pixels of its points.
 // Reads only the frame's depth and its camera (the extrinsics as calibrated) and the bin's known
@@ -52,6 +53,10 @@ struct SegmentationOptions {
   /// objects' own limits (objects.generated's max_extent and max_width), as the crop's height is
   /// from the tallest object.
   double max_object_length = 0, max_object_width = 0;
+  /// [deg] An LCCP segment larger than an object can be (max_object_length by max_object_width;
+  /// none when those are 0) is cut again at connections concave by more than this (0: never);
+  /// pieces of at most min_supervoxels join their largest neighbour within it. Before the joins.
+  double recut_tolerance = 12.0;
   // Region growing (PCL's RegionGrowing; its names) and clustering with normals (PCL's
   // ConditionalEuclideanClustering), each at the best of the settings measured.
   int grow_neighbours = 32;            ///< region growing: the nearest points a normal is fitted to, and its neighbours

@@ -4,6 +4,7 @@
 // mask (one segment to one object); a segment that matches no object so is false. Piles of generated objects of every grade, dropped and settled as the
 // clutter_pile experiment drops them, seen once from the overhead camera with the stereo noise.
 // MM_PILES=N prints the table over N piles (docs/measurements/perception.md); the test asserts on a few.
+// MM_RECUT=0 leaves LCCP's segments larger than any object whole (another value: its tolerance).
 // MM_SANITY_JOIN=0 and MM_LEN=0 turn off the joins of LCCP's segments (faces seen edge on; pieces
 // that together fit an object's size: MM_LEN and MM_WID give other sizes).
 #include <gtest/gtest.h>
@@ -60,7 +61,7 @@ struct Score {
 // `labels`: the oracle's segments (the renderer's labels), else the depth's.
 void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height, Score& score, bool verbose, bool labels,
                std::optional<SegmentationMethod> method, std::optional<double> sanity_join = {},
-               std::optional<double> object_length = {}) {
+               std::optional<double> object_length = {}, std::optional<double> recut = {}) {
   const auto [T_bin, half] = w.site("bin_region");
   SpawnOptions so;
   so.generated.grades = shapeGrades();
@@ -106,7 +107,9 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
   o.max_object_width = so.generated.max_width;
   if (const char* e = std::getenv("MM_LEN")) o.max_object_length = std::atof(e);  // 0: no join by size
   if (const char* e = std::getenv("MM_WID")) o.max_object_width = std::atof(e);
+  if (const char* e = std::getenv("MM_RECUT")) o.recut_tolerance = std::atof(e);
   if (object_length) o.max_object_length = *object_length;
+  if (recut) o.recut_tolerance = *recut;
   if (method) o.method = *method;
   if (const char* e = std::getenv("MM_SANITY_JOIN")) o.sanity_join = std::atof(e);  // 0: LCCP's segments as they are
   if (sanity_join) o.sanity_join = *sanity_join;
@@ -337,6 +340,23 @@ TEST(PileSegmentation, PiecesThatTogetherFitAnObjectsSizeAreJoinedIntoOne) {
   EXPECT_EQ(found_joined, found_apart + 1);
   EXPECT_EQ(joined.false_segments, apart.false_segments - 3);
   EXPECT_EQ(apart.grades["hollow"].found + 1, joined.grades["hollow"].found);
+}
+
+// Seed 1's pile 23: two objects side by side (a blend and a convex solid) that LCCP takes for one
+// segment, the valley between their tops concave by less than its 25 degrees. Together they are
+// larger than any generated object can be, so the segment is cut again at 12 degrees: two
+// segments, each object found.
+TEST(PileSegmentation, ASegmentLargerThanAnyObjectIsCutAgainAtATighterConcavity) {
+  auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
+  Score whole, cut;
+  scorePile(*w, 1, 23, 640, 480, whole, false, false, {}, {}, {}, 0.0);
+  scorePile(*w, 1, 23, 640, 480, cut, false, false, {}, {}, {}, SegmentationOptions{}.recut_tolerance);
+  int found_whole = 0, found_cut = 0;
+  for (const auto& [grade, g] : whole.grades) found_whole += g.found;
+  for (const auto& [grade, g] : cut.grades) found_cut += g.found;
+  EXPECT_EQ(found_cut, found_whole + 2);
+  EXPECT_EQ(cut.segments, whole.segments + 1);
+  EXPECT_EQ(cut.false_segments, whole.false_segments - 1);
 }
 
 // The oracle's segments (perception.segmentation: labels), from the same noisy depth: every object
