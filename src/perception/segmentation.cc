@@ -95,12 +95,14 @@ void joinSanityRefused(const std::map<std::uint32_t, pcl::Supervoxel<pcl::PointX
 
 std::pair<double, double> extentsFromAbove(const std::vector<Vec2>& a, const std::vector<Vec2>& b);
 
-// An LCCP segment larger than any object can be (its supervoxels' points, seen from above, do not
+// An LCCP segment larger than any object can be (its supervoxels' voxels, seen from above, do not
 // fit max_object_length by max_object_width) holds two objects or more: LCCP took the valley
 // between them, concave by less than its tolerance, for convex. It is cut again at connections
-// concave by more than recut_tolerance, and pieces of at most min_supervoxels join their largest
-// neighbour within it (smallest first, then the first), so that a cut leaves no crumbs. Each
-// segment's decision is its own, and every loop runs in the supervoxels' label order.
+// concave by more than recut_tolerance (LCCP's convexity criterion with that tolerance; a
+// connection only its sanity criterion refuses stays joined, as the join of faces seen edge on
+// would join it), and pieces of at most min_supervoxels join their largest neighbour within it
+// (smallest first, then the first), so that a cut leaves no crumbs. Each segment's decision is its
+// own; the segments are visited by label, their supervoxels by label.
 void recutOversized(const std::map<std::uint32_t, pcl::Supervoxel<pcl::PointXYZ>::Ptr>& clusters,
                     const std::multimap<std::uint32_t, std::uint32_t>& adjacency, const SegmentationOptions& o,
                     const Pose& T_region_camera, std::map<std::uint32_t, std::uint32_t>& segment_of) {

@@ -55,7 +55,8 @@ struct SegmentationOptions {
   double max_object_length = 0, max_object_width = 0;
   /// [deg] An LCCP segment larger than an object can be (max_object_length by max_object_width;
   /// none when those are 0) is cut again at connections concave by more than this (0: never);
-  /// pieces of at most min_supervoxels join their largest neighbour within it. Before the joins.
+  /// pieces of at most min_supervoxels join their largest neighbour within it. After the join of
+  /// faces seen edge on, before LCCP's rule for small segments and the join by size.
   double recut_tolerance = 12.0;
   // Region growing (PCL's RegionGrowing; its names) and clustering with normals (PCL's
   // ConditionalEuclideanClustering), each at the best of the settings measured.

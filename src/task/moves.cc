@@ -1,4 +1,5 @@
-// The arm's other moves: home, a straight retreat up from a tight spot, the gripper alone.
+// The arm's other moves: home, a retreat up from a tight spot (out of a static part first, if the
+// hand is inside one), the gripper alone.
 #include "task/pick_place.h"
 
 #include <algorithm>
@@ -38,15 +39,21 @@ std::vector<CartesianPath> wayUp(TrialContext& ctx, double distance, int exclude
     const auto at = hit.find(" / ");
     return hit.substr(at == std::string::npos ? 0 : at + 3);
   };
+  // Objects the hand starts inside are left out; so is a static part of the cell (the first met)
+  // while looking for them, and then checked again: its way out is looked for below.
   std::string inside;  // the static part the hand starts inside, if any
   for (int k = 0; k < 4 && !checker->isValid(ctx.q_rest); ++k) {
     const std::string obstacle = obstacleOf(checker->lastCollision());
-    if (std::none_of(ctx.objects.begin(), ctx.objects.end(), [&](const ObjectState& x) { return x.name == obstacle; })) {
-      if (std::any_of(s.obstacles.begin(), s.obstacles.end(), [&](const Obstacle& x) { return x.name == obstacle; }))
-        inside = obstacle;
-      break;
-    }
+    const bool object = std::any_of(ctx.objects.begin(), ctx.objects.end(), [&](const ObjectState& x) { return x.name == obstacle; });
+    const bool part = !object && inside.empty() &&
+                      std::any_of(ctx.statics.begin(), ctx.statics.end(), [&](const Obstacle& x) { return x.name == obstacle; });
+    if (!object && !part) break;
+    if (part) inside = obstacle;
     s.ignore.push_back(obstacle);
+    checker = makeChecker(ctx.options.checker, ctx.robot, s, 0.0);
+  }
+  if (!inside.empty()) {
+    s.ignore.erase(std::find(s.ignore.begin(), s.ignore.end(), inside));
     checker = makeChecker(ctx.options.checker, ctx.robot, s, 0.0);
   }
   const Pose T0 = ctx.robot.fk(ctx.q_rest);
@@ -84,19 +91,47 @@ std::vector<CartesianPath> wayUp(TrialContext& ctx, double distance, int exclude
         }
       }
     }
+    // Only ways out of the part's side nearest the TCP (a box's side face whose plane it is least
+    // far inside or nearest outside of; a round part's side towards it): the finger in the part
+    // is on the TCP's side of it, and a way through a thin wall may be as short in the checker's
+    // shapes. The shortest first.
+    const Obstacle& what = *std::find_if(ctx.statics.begin(), ctx.statics.end(), [&](const Obstacle& x) { return x.name == inside; });
+    const Vec3 local = what.T_world.inverse() * T0.translation();
+    Vec3 outward = what.T_world.translation();
+    outward = T0.translation() - outward;
+    if (what.type == Obstacle::Type::kBox) {
+      int a = -1;
+      for (int i = 0; i < 3; ++i) {
+        const Vec3 axis = what.T_world.linear().col(i);
+        if (std::abs(axis.z()) > 0.7) continue;  // a top or bottom face
+        if (a < 0 || std::abs(local[i]) - what.size[i] > std::abs(local[a]) - what.size[a]) a = i;
+      }
+      if (a >= 0) outward = (local[a] < 0 ? -1.0 : 1.0) * what.T_world.linear().col(a);
+    }
+    outward.z() = 0;
+    if (outward.norm() > 1e-9) outward.normalize();
+    exits.erase(std::remove_if(exits.begin(), exits.end(), [&](const auto& e) { return way(e.second).dot(outward) < 0.3; }), exits.end());
     std::sort(exits.begin(), exits.end());
-    for (const auto& [d, k] : exits)
+    for (const auto& [d, k] : exits) {
       for (const double margin : {0.005, 0.01, 0.015}) {
         Pose T = T0;
         T.translation() += (d + margin) * way(k);
         const CartesianPath side = planCartesianLine(ctx.robot, *beside, ctx.q_rest, T, ikNear(ctx), ctx.options.cartesian);
         if (!side.ok || !checker->isValid(side.waypoints.back())) continue;
+        // Once out of the part, the line stays out of it.
+        bool stays_out = true;
+        for (size_t i = 1; i < side.waypoints.size() && stays_out; ++i)
+          if (static_cast<double>(i) / static_cast<double>(side.waypoints.size() - 1) * (d + margin) >= d)
+            stays_out = part->isValid(side.waypoints[i]);
+        if (!stays_out) continue;
         CartesianPath then = lineUp(side.waypoints.back(), T);
         if (!then.ok) continue;
         ctx.out.collision_checks += checker->checks() + part->checks() + beside->checks();
         return {side, then};
       }
+    }
     ctx.out.collision_checks += part->checks() + beside->checks();
+    up.reason += "; no way out of " + inside + " sideways";
   }
   ctx.out.collision_checks += checker->checks();
   return {up};

@@ -109,7 +109,8 @@ Failure planHome(TrialContext& ctx, Plan& out);
 /// objects), and go up. Records "plan_push"; FAILURE when no direction has room.
 Failure planPush(TrialContext& ctx, const ObjectState& object, Plan& out);
 /// A straight retreat of `distance` [m] up from where the arm rests, checked without padding (the
-/// way out of a spot where the hand touches). Records "plan_safe".
+/// way out of a spot where the hand touches); from inside a static part of the cell, first a short
+/// horizontal move out of it, the way it leaves soonest. Records "plan_safe".
 Failure planRetreatUp(TrialContext& ctx, double distance, Plan& out);
 /// The gripper to `opening` [m] per finger, recorded as `stage`: opening lets go of a held object;
 /// closing on an object between the fingers (a perceived one within 2 cm of the TCP) takes hold of
