@@ -93,7 +93,30 @@ void joinSanityRefused(const std::map<std::uint32_t, pcl::Supervoxel<pcl::PointX
   for (auto& [sv, seg] : segment_of) seg = find(seg);
 }
 
-std::pair<double, double> extentsFromAbove(const std::vector<Vec2>& a, const std::vector<Vec2>& b);
+// The principal extents (major, minor) of points seen from above: the points' spread along the
+// eigenvectors of their covariance in the region's xy.
+std::pair<double, double> extentsFromAbove(const std::vector<Vec2>& a, const std::vector<Vec2>& b) {
+  const double n = static_cast<double>(a.size() + b.size());
+  Vec2 mean = Vec2::Zero();
+  for (const auto* v : {&a, &b})
+    for (const Vec2& p : *v) mean += p;
+  mean /= n;
+  double sxx = 0, sxy = 0, syy = 0;
+  for (const auto* v : {&a, &b})
+    for (const Vec2& p : *v) {
+      const Vec2 d = p - mean;
+      sxx += d.x() * d.x(), sxy += d.x() * d.y(), syy += d.y() * d.y();
+    }
+  const double angle = 0.5 * std::atan2(2 * sxy, sxx - syy);  // the major axis
+  const Vec2 major(std::cos(angle), std::sin(angle)), minor(-major.y(), major.x());
+  double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+  for (const auto* v : {&a, &b})
+    for (const Vec2& p : *v) {
+      const double s0 = (p - mean).dot(major), s1 = (p - mean).dot(minor);
+      lo[0] = std::min(lo[0], s0), hi[0] = std::max(hi[0], s0), lo[1] = std::min(lo[1], s1), hi[1] = std::max(hi[1], s1);
+    }
+  return {hi[0] - lo[0], hi[1] - lo[1]};
+}
 
 // An LCCP segment larger than any object can be (its supervoxels' voxels, seen from above, do not
 // fit max_object_length by max_object_width) holds two objects or more: LCCP took the valley
@@ -170,31 +193,6 @@ void recutOversized(const std::map<std::uint32_t, pcl::Supervoxel<pcl::PointXYZ>
       segment_of[sv] = it->second;
     }
   }
-}
-
-// The principal extents (major, minor) of points seen from above: the points' spread along the
-// eigenvectors of their covariance in the region's xy.
-std::pair<double, double> extentsFromAbove(const std::vector<Vec2>& a, const std::vector<Vec2>& b) {
-  const double n = static_cast<double>(a.size() + b.size());
-  Vec2 mean = Vec2::Zero();
-  for (const auto* v : {&a, &b})
-    for (const Vec2& p : *v) mean += p;
-  mean /= n;
-  double sxx = 0, sxy = 0, syy = 0;
-  for (const auto* v : {&a, &b})
-    for (const Vec2& p : *v) {
-      const Vec2 d = p - mean;
-      sxx += d.x() * d.x(), sxy += d.x() * d.y(), syy += d.y() * d.y();
-    }
-  const double angle = 0.5 * std::atan2(2 * sxy, sxx - syy);  // the major axis
-  const Vec2 major(std::cos(angle), std::sin(angle)), minor(-major.y(), major.x());
-  double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
-  for (const auto* v : {&a, &b})
-    for (const Vec2& p : *v) {
-      const double s0 = (p - mean).dot(major), s1 = (p - mean).dot(minor);
-      lo[0] = std::min(lo[0], s0), hi[0] = std::max(hi[0], s0), lo[1] = std::min(lo[1], s1), hi[1] = std::max(hi[1], s1);
-    }
-  return {hi[0] - lo[0], hi[1] - lo[1]};
 }
 
 // Neighbouring segments (`near`, by index) whose points together still fit what an object can

@@ -624,6 +624,21 @@ TEST(CloudGrasps, ACampaignPicksWithGraspsFromTheCameraPoints) {
   EXPECT_THAT(b.out, ::testing::HasSubstr("expected model, cloud, external or nothing")) << b.out;
 }
 
+// One packed round in camera mode through the cloud tree (`sets`: seed, round, more settings),
+// its record in `t`.
+void runCloudRound(const std::string& sets, TrialRecord& t) {
+  testing_cli::TempDir dir;
+  const std::string out = (dir.path() / "round").string();
+  const auto r = testing_cli::runMinimanip("run experiments/clutter_packed.yaml " + sets +
+                                           " --jobs 1 --set progress=none --set perception.mode=camera "
+                                           "--set tree=experiments/trees/clutter_removal_cloud.xml --out " + out);
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::ifstream in(out + "/trials.jsonl");
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line));
+  t = fromJsonLine(line, "trials.jsonl");
+}
+
 // The cloud tree's back-off sets down an object the gripper still holds instead of letting it go
 // over the bin. Packed round 1 (seed 3) with a joint stalled for 2.5 s on the way to the tray: the
 // place fails three times in the round's own retries, the tree backs off holding the object, and
@@ -631,16 +646,8 @@ TEST(CloudGrasps, ACampaignPicksWithGraspsFromTheCameraPoints) {
 // (measured on this round with the tree before the change).
 TEST(CloudGrasps, AnObjectStillHeldAfterBackingOffIsSetDownInASlot) {
   if (testing_sanitized::kSanitized) GTEST_SKIP() << "a whole camera round; the Release pass runs it";
-  testing_cli::TempDir dir;
-  const std::string out = (dir.path() / "stall").string();
-  const auto r = testing_cli::runMinimanip(
-      "run experiments/clutter_packed.yaml --set seed=3 --only 1 --jobs 1 --set progress=none --set perception.mode=camera "
-      "--set tree=experiments/trees/clutter_removal_cloud.xml --set faults.joint_stall=1 --set faults.stall_time=2.5 --out " + out);
-  ASSERT_EQ(r.code, 0) << r.out;
-  std::ifstream in(out + "/trials.jsonl");
-  std::string line;
-  ASSERT_TRUE(std::getline(in, line));
-  const TrialRecord t = fromJsonLine(line, "trials.jsonl");
+  TrialRecord t;
+  ASSERT_NO_FATAL_FAILURE(runCloudRound("--set seed=3 --only 1 --set faults.joint_stall=1 --set faults.stall_time=2.5", t));
   ASSERT_EQ(t.o.faults.size(), 1u);
   EXPECT_EQ(t.o.faults[0].stage, "move_preplace");
   int place_failures = 0;
@@ -657,16 +664,8 @@ TEST(CloudGrasps, AnObjectStillHeldAfterBackingOffIsSetDownInASlot) {
 // tray's wall as the arm rose (one collision); now none.
 TEST(CloudGrasps, BesideTheTraysWallTheHandIsTurnedToRiseWithRoom) {
   if (testing_sanitized::kSanitized) GTEST_SKIP() << "a whole camera round; the Release pass runs it";
-  testing_cli::TempDir dir;
-  const std::string out = (dir.path() / "roomy").string();
-  const auto r = testing_cli::runMinimanip(
-      "run experiments/clutter_packed.yaml --set seed=4 --only 91 --jobs 1 --set progress=none --set perception.mode=camera "
-      "--set tree=experiments/trees/clutter_removal_cloud.xml --out " + out);
-  ASSERT_EQ(r.code, 0) << r.out;
-  std::ifstream in(out + "/trials.jsonl");
-  std::string line;
-  ASSERT_TRUE(std::getline(in, line));
-  const TrialRecord t = fromJsonLine(line, "trials.jsonl");
+  TrialRecord t;
+  ASSERT_NO_FATAL_FAILURE(runCloudRound("--set seed=4 --only 91", t));
   EXPECT_GE(t.o.picks.size(), 5u);
   EXPECT_EQ(t.o.collision_count, 0) << (t.o.collision_log.empty() ? "" : t.o.collision_log[0]);
 }
