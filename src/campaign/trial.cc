@@ -218,7 +218,10 @@ Cell makeCell(const Experiment& e, const RobotModel& robot, const SimWorld& worl
   }
   // Generated objects and meshes have no model the camera's perception fits: it segments them.
   c.perception.unknown_objects = c.spawn.generated.enabled();
-  if (c.spawn.generated.enabled()) c.perception.object_length = c.spawn.generated.max_extent, c.perception.object_width = c.spawn.generated.max_width;
+  // What a generated object can measure seen from above: no side of its bounding box is longer than
+  // max_extent, along or across (max_width bounds a piece the fingers close across, not the
+  // outline: a ring or a cup is as wide as it is long).
+  if (c.spawn.generated.enabled()) c.perception.object_length = c.perception.object_width = c.spawn.generated.max_extent;
   for (const std::string& k : c.spawn.kinds) {
     const ObjectKind* kind = c.spawn.loaded.find(k);
     if (kind->shape == ObjectShape::kMesh) c.perception.unknown_objects = true;

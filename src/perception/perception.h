@@ -51,7 +51,7 @@ struct PerceptionOptions {
   /// segments (perception/segmentation.h), each known as the columns under its points (segmentObject).
   bool unknown_objects = false;
   /// [m] What one of the bin's objects can measure seen from above, along and across (a generated
-  /// set's max_extent and max_width; 0: not known): neighbouring segments that together fit are
+  /// set's max_extent both ways; 0: not known): neighbouring segments that together fit are
   /// taken for pieces of one object (SegmentationOptions::max_object_length; the campaign sets it).
   double object_length = 0, object_width = 0;
   /// The depth cut into segments (segmentDepth); or an oracle's, the renderer's per-object labels

@@ -50,8 +50,8 @@ struct SegmentationOptions {
   /// points over the floor, along (length) and across (width). Two neighbouring segments (through
   /// their supervoxels, or their instance masks touching) whose points together fit in these are
   /// joined, the pair of the shortest union first, until no pair fits (0: no such join). From the
-  /// objects' own limits (objects.generated's max_extent and max_width), as the crop's height is
-  /// from the tallest object.
+  /// objects' own limit (objects.generated's max_extent, both ways: a ring is as wide as it is
+  /// long), as the crop's height is from the tallest object.
   double max_object_length = 0, max_object_width = 0;
   /// [deg] An LCCP segment larger than an object can be (max_object_length by max_object_width;
   /// none when those are 0) is cut again at connections concave by more than this (0: never);
