@@ -122,6 +122,16 @@ Failure cloudGraspCandidates(TrialContext& ctx, std::vector<std::pair<ObjectStat
       for (const Obstacle& b : obstaclesOf(o)) co.boxes.push_back(box(b, owner));
     }
   for (const Obstacle& b : ctx.seen_obstacles) co.boxes.push_back(box(b, -1));
+  // The cell's box-shaped walls as the grasp's checks will take them (planning.wall_padding): a
+  // hand whose fingers go down within that of a wall is dropped (counted as into a neighbour), as
+  // the approach's check would refuse it. Not the floors (the parts whose top is within 5 mm of the
+  // region's floor): the fingertips come near them.
+  if (ctx.options.wall_padding > co.padding) {
+    const double floor = co.T_world_region.translation().z() + 0.005;
+    for (const Obstacle& s : wallPaddedStatics(ctx, co.padding))
+      if (s.type == Obstacle::Type::kBox && s.T_world.translation().z() + s.T_world.linear().row(2).cwiseAbs().dot(s.size) > floor)
+        co.boxes.push_back(box(s, -1));
+  }
   const Vec3 preferred_x = ctx.robot.fk(ctx.robot.home()).linear().col(0);
   const CloudGraspResult r = cloudGrasps(frame, co, preferred_x, ctx.rng_grasp);
   int none = 0, several = 0;
@@ -284,7 +294,7 @@ GraspCheckers graspCheckers(const TrialContext& ctx, const ObjectState& object, 
   const double widest = half_width >= 0 ? 2 * half_width : 2 * std::max(object.half_size.x(), object.half_size.y());
   full_scene.finger_opening = approach_scene.finger_opening = std::min(ctx.robot.spec().gripper.travel, widest / 2 + margin);
   const double padding = graspPadding(o, margin, half_width >= 0);
-  return {makeChecker(o.checker, ctx.robot, full_scene, padding), makeChecker(o.checker, ctx.robot, approach_scene, padding), padding,
+  return {wallPaddedChecker(ctx, full_scene, padding), wallPaddedChecker(ctx, approach_scene, padding), padding,
           full_scene.finger_opening};
 }
 
@@ -526,7 +536,7 @@ Failure planPick(TrialContext& ctx, const GraspSolution& g, Plan& out) {
                                                               : 2 * std::max(g.object.half_size.x(), g.object.half_size.y());
   const double margin = g.finger_margin > 0 ? g.finger_margin : o.finger_margin;
   full_scene.finger_opening = std::min(travel, widest / 2 + margin);
-  auto full = makeChecker(o.checker, ctx.robot, full_scene, g.padding >= 0 ? g.padding : graspPadding(o, margin, false));
+  auto full = wallPaddedChecker(ctx, full_scene, g.padding >= 0 ? g.padding : graspPadding(o, margin, false));
   JointTrajectory t_connect;
   const Failure f = connect(ctx, "connect_pregrasp", *full, full_scene, ctx.q_rest, g.q_pre, t_connect);
   ctx.out.collision_checks += full->checks();

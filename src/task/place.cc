@@ -49,7 +49,7 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
                                   : o.padding;
   PlanningScene ps = planningScene(ctx, -1, true);
   ps.attached_padding = -kSupportTolerance;
-  auto descending = makeChecker(o.checker, ctx.robot, ps, down_padding);
+  auto descending = wallPaddedChecker(ctx, ps, down_padding);
   // TCP poses that put the object at the target, one per symmetry of the box (a cube held on its
   // side is placed on that side) that keeps the hand within 45 deg of pointing down; least wrist
   // turn and tilt first.
@@ -90,7 +90,7 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
       const double top = s.T_world.translation().z() + s.T_world.linear().row(2).cwiseAbs().dot(s.size);
       if (s.type == Obstacle::Type::kBox && top <= low + kSupportTolerance) ps.attached_ignore.push_back(s.name);
     }
-    descending = makeChecker(o.checker, ctx.robot, ps, down_padding);
+    descending = wallPaddedChecker(ctx, ps, down_padding);
   }
   const Pose T_tcp_now = ctx.robot.fk(q_lift);
   const double yaw_now = yawOf(T_tcp_now.linear());
@@ -189,7 +189,7 @@ Failure planPlace(TrialContext& ctx, const Pose& T_world_object, bool release, P
     for (const auto& [opening, padding] : tries) {
       PlanningScene rs = planningScene(ctx, ctx.held, false);
       rs.finger_opening = opening;
-      auto retreating = makeChecker(o.checker, ctx.robot, rs, padding);
+      auto retreating = wallPaddedChecker(ctx, rs, padding);
       retreat = planCartesianLine(ctx.robot, *retreating, descend.waypoints.back(), T_up, ikNear(ctx), o.cartesian);
       ctx.out.collision_checks += retreating->checks();
       release_opening = opening;

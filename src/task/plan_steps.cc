@@ -1,7 +1,9 @@
 #include "task/plan_steps.h"
 
 #include <algorithm>
+#include <cmath>
 
+#include "core/error.h"
 #include "planning/blend.h"
 #include "planning/chomp.h"
 #include "planning/time_parameterization.h"
@@ -66,6 +68,34 @@ PlanningScene planningScene(const TrialContext& ctx, int exclude, bool attached)
     s.finger_opening = cloud ? ctx.held_record.grasp_opening : ctx.held_record.half_size.y();
   }
   return s;
+}
+
+std::vector<Obstacle> wallPaddedStatics(const TrialContext& ctx, double padding) {
+  std::vector<Obstacle> out = ctx.statics;
+  const double grow = ctx.options.wall_padding - padding;
+  if (!(grow > 0)) return out;
+  for (Obstacle& b : out) {
+    const Mat3& R = b.T_world.linear();
+    constexpr double kLevel = 0.17;  // an axis within 10 degrees of level is a side's normal
+    if (b.type == Obstacle::Type::kBox) {
+      for (int k = 0; k < 3; ++k)
+        if (std::abs(R(2, k)) < kLevel) b.size[k] += grow;
+    } else if (b.type != Obstacle::Type::kSphere && std::abs(R(2, 2)) > std::sqrt(1 - kLevel * kLevel)) {
+      b.size.x() += grow;  // an upright cylinder's or capsule's radius
+    }
+  }
+  return out;
+}
+
+std::unique_ptr<CollisionChecker> wallPaddedChecker(const TrialContext& ctx, PlanningScene scene, double padding) {
+  if (ctx.options.wall_padding > padding) {
+    const std::vector<Obstacle> grown = wallPaddedStatics(ctx, padding);
+    for (size_t i = 0; i < grown.size(); ++i) {
+      MM_DEMAND(scene.obstacles.at(i).name == grown[i].name);
+      scene.obstacles[i] = grown[i];
+    }
+  }
+  return makeChecker(ctx.options.checker, ctx.robot, scene, padding);
 }
 
 IkFunction ikNear(TrialContext& ctx, Rng& rng) {

@@ -43,6 +43,13 @@ bool picked(const TrialContext& ctx, int index);
 /// not yet picked (but `exclude`), the objects let go of at their targets (but `exclude`), and the
 /// held object when `attached`.
 PlanningScene planningScene(const TrialContext& ctx, int exclude, bool attached);
+/// The cell's known parts (ctx.statics) with their sides grown so that a robot padded by `padding`
+/// keeps at least options.wall_padding from them: horizontally, by what `padding` falls short of
+/// it; their tops stay (a low object's fingertips come near the floor).
+std::vector<Obstacle> wallPaddedStatics(const TrialContext& ctx, double padding);
+/// The checker of `scene` (a planningScene: the statics first) with the robot padded by `padding`
+/// and the statics as wallPaddedStatics.
+std::unique_ptr<CollisionChecker> wallPaddedChecker(const TrialContext& ctx, PlanningScene scene, double padding);
 /// IK by one descent from the seed (a straight line's samples stay on its branch), converged far
 /// below the control period's resolution.
 IkFunction ikNear(TrialContext& ctx, Rng& rng);

@@ -140,6 +140,12 @@ void TaskOptions::declare(ConfigArchive& a) {
   a.choice("optimizer", optimizer, optimizerNames(),
            "optimizing post-processor after the planner (CHOMP-style; time-parameterize its dense paths with totg)");
   a.value("padding", padding, {0.0, 0.1}, "m", "robot inflation against the world");
+  a.value("wall_padding", wall_padding, {0.0, 0.1}, "m",
+          "the robot (and the object it sets down) kept at least this far from the sides of the cell's known parts (the "
+          "bin's and the tray's walls) in the grasp's and the place's checks padded less (a grasp from the camera's points: grasp.cloud_padding; the "
+          "tight pass: grasp.tight_margin): the parts are grown sideways by the difference, their tops not (a low "
+          "object's fingertips come near the floor), and the detector of grasps from the points drops a hand whose "
+          "fingers go down that near a wall; 0: off");
   a.leave();
 
   a.enter("success");

@@ -30,6 +30,9 @@ struct TaskOptions {
   void declare(ConfigArchive& a);
   PlannerOptions planner;
   double padding = 0.01;                 ///< [m] robot inflation against the world when planning
+  /// [m] the least clearance from the sides of the cell's known parts in checks padded less (the
+  /// depth's noise is not theirs, but the arm's tracking error is); 0: off
+  double wall_padding = 0.0;
   std::string checker = "spheres+fcl";   ///< collision checker: "spheres", "spheres+fcl" or "fcl"
   std::string time_parameterization = "jerk_limited";  ///< joint paths: a name of timeParameterizationNames()
   std::string optimizer = "none";        ///< "none" or "chomp" after the planner
