@@ -2,31 +2,24 @@
 // wall) gets out: sideways out of the part, the way its nearest face is, then up.
 #include <gtest/gtest.h>
 
-#include "campaign/experiment.h"
-#include "campaign/trial.h"
-#include "planning/collision.h"
-#include "sim/hardware.h"
-#include "sim/scene_sampler.h"
-#include "sim/sim_world.h"
-#include "task/pick_place.h"
 #include "kinematics/ik.h"
+#include "planning/collision.h"
+#include "quickstart_cell.h"
+#include "task/pick_place.h"
 
 namespace mm {
 namespace {
 
 TEST(LeaveStaticPart, AFingerInsideTheBinsWallSlidesOutOfItsNearFaceThenRises) {
-  const Experiment e = loadExperiment("experiments/quickstart.yaml", {});
-  const RobotModel robot = RobotModel::load("robots/panda/panda.yaml");
-  auto world = loadWorld(e, robot);
-  const Cell cell = makeCell(e, robot, *world);
-  auto hw = makeMujocoHardware(*world, robot, {});
-  TrialContext ctx(*hw, robot, cell.statics, e.task, cell.perception, e.seed, 0);
+  const testing_task::QuickstartCell quickstart;
+  const Experiment& e = quickstart.e;
+  const RobotModel& robot = quickstart.robot;
+  const Cell& cell = quickstart.cell;
+  TrialContext ctx(*quickstart.hw, robot, cell.statics, e.task, cell.perception, e.seed, 0);
   ctx.gripper_opening = 0.04;
 
   // The +x wall: the hand over the bin by it, pointing down, fingers closing along x, open.
-  const Obstacle* wall = nullptr;
-  for (const Obstacle& s : cell.statics)
-    if (s.name == "bin_wall_xp") wall = &s;
+  const Obstacle* wall = quickstart.part("bin_wall_xp");
   ASSERT_NE(wall, nullptr);
   const double inner = wall->T_world.translation().x() - wall->size.x();
   PlanningScene scene;

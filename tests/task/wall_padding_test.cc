@@ -2,27 +2,18 @@
 // grasp.cloud_padding) keeps its fingers at least wall_padding from the bin's walls.
 #include <gtest/gtest.h>
 
-#include "campaign/experiment.h"
-#include "campaign/trial.h"
-#include "sim/hardware.h"
-#include "sim/scene_sampler.h"
-#include "sim/sim_world.h"
+#include "quickstart_cell.h"
 #include "task/pick_place.h"
 
 namespace mm {
 namespace {
 
 TEST(WallPadding, AGraspFromThePointsBesideTheBinsWallLeavesTheWallRoom) {
-  const Experiment e = loadExperiment("experiments/quickstart.yaml", {});
-  const RobotModel robot = RobotModel::load("robots/panda/panda.yaml");
-  auto world = loadWorld(e, robot);
-  const Cell cell = makeCell(e, robot, *world);
-  auto hw = makeMujocoHardware(*world, robot, {});
-  const Obstacle *wall = nullptr, *floor = nullptr;
-  for (const Obstacle& s : cell.statics) {
-    if (s.name == "bin_wall_xp") wall = &s;
-    if (s.name == "bin_floor") floor = &s;
-  }
+  const testing_task::QuickstartCell q;
+  const Experiment& e = q.e;
+  const RobotModel& robot = q.robot;
+  const Cell& cell = q.cell;
+  const Obstacle *wall = q.part("bin_wall_xp"), *floor = q.part("bin_floor");
   ASSERT_NE(wall, nullptr);
   ASSERT_NE(floor, nullptr);
   const double inner = wall->T_world.translation().x() - wall->size.x();
@@ -36,7 +27,7 @@ TEST(WallPadding, AGraspFromThePointsBesideTheBinsWallLeavesTheWallRoom) {
     o.finger_margin = 0.006;
     o.cloud_padding = 0.002;
     o.wall_padding = wall_padding;
-    TrialContext ctx(*hw, robot, cell.statics, o, cell.perception, e.seed, 0);
+    TrialContext ctx(*q.hw, robot, cell.statics, o, cell.perception, e.seed, 0);
     ctx.q_rest = robot.home();
     ObjectState box;
     box.index = 0;

@@ -1,0 +1,33 @@
+// The quickstart's cell for the task layer's tests: its experiment, the Panda, the world, the
+// cell (its static parts as the planner knows them) and the MuJoCo hardware, and a part by name.
+#pragma once
+#include <memory>
+#include <string>
+
+#include "campaign/experiment.h"
+#include "campaign/trial.h"
+#include "sim/hardware.h"
+#include "sim/sim_world.h"
+
+namespace mm::testing_task {
+
+struct QuickstartCell {
+  Experiment e = loadExperiment("experiments/quickstart.yaml", {});
+  RobotModel robot = RobotModel::load("robots/panda/panda.yaml");
+  std::unique_ptr<SimWorld> world = loadWorld(e, robot);
+  Cell cell = makeCell(e, robot, *world);
+  std::unique_ptr<Hardware> hw = makeMujocoHardware(*world, robot, {});
+
+  QuickstartCell() = default;
+  QuickstartCell(const QuickstartCell&) = delete;  // the cell and the hardware point at robot and world
+  QuickstartCell& operator=(const QuickstartCell&) = delete;
+
+  /// The static part `name` (nullptr: none).
+  const Obstacle* part(const std::string& name) const {
+    for (const Obstacle& s : cell.statics)
+      if (s.name == name) return &s;
+    return nullptr;
+  }
+};
+
+}  // namespace mm::testing_task
