@@ -22,8 +22,8 @@ namespace {
 // The straight line `distance` up from where the arm rests. Unpadded: backing out straight up is
 // how the hand leaves a spot where it touches (a missed grasp among the walls), which the padded
 // planner would call a collision from the start. An object the hand starts inside (one it pushed,
-// perceived where it was) is left out: going up is the way off it. `exclude`: an object not
-// checked at all (the one just let go of, still between the fingers).
+// perceived where it was, or one it set down) is left out: going up is the way off it. `exclude`:
+// an object not checked at all (the one just let go of, still between the fingers).
 //
 // A hand that starts inside a static part of the cell (a protective stop that left a finger in a
 // bin's wall) cannot go up through it, nor can the cell be ignored. As MoveIt's
@@ -44,7 +44,11 @@ std::vector<CartesianPath> wayUp(TrialContext& ctx, double distance, int exclude
   std::string inside;  // the static part the hand starts inside, if any
   for (int k = 0; k < 4 && !checker->isValid(ctx.q_rest); ++k) {
     const std::string obstacle = obstacleOf(checker->lastCollision());
-    const bool object = std::any_of(ctx.objects.begin(), ctx.objects.end(), [&](const ObjectState& x) { return x.name == obstacle; });
+    // A perceived object, or one let go of at its target (planningScene's "placed_<k>": the hand
+    // that set it down may still be about it).
+    const bool object = std::any_of(ctx.objects.begin(), ctx.objects.end(), [&](const ObjectState& x) { return x.name == obstacle; }) ||
+                        std::any_of(ctx.out.picks.begin(), ctx.out.picks.end(),
+                                    [&](const PickRecord& p) { return p.at_target && obstacle == "placed_" + std::to_string(p.object); });
     const bool part = !object && inside.empty() &&
                       std::any_of(ctx.statics.begin(), ctx.statics.end(), [&](const Obstacle& x) { return x.name == obstacle; });
     if (!object && !part) break;

@@ -75,5 +75,62 @@ TEST(LeaveStaticPart, AFingerInsideTheBinsWallSlidesOutOfItsNearFaceThenRises) {
     EXPECT_TRUE(checker->isValid(plan.steps[1].trajectory.q.col(k))) << k << ": " << checker->lastCollision();
 }
 
+// A hand whose finger is inside an object it set down (a stop as it let go, the object pushed
+// against the finger; it is not the object MoveToSafe leaves out as just placed when another came
+// after): MoveToHome's start is in collision, and its way out leaves the object out as it leaves
+// out a perceived one the hand is inside: up, then home.
+TEST(LeaveStaticPart, AHandInsideAnObjectItSetDownRisesOffItAndGoesHome) {
+  const testing_task::QuickstartCell quickstart;
+  const Experiment& e = quickstart.e;
+  const RobotModel& robot = quickstart.robot;
+  const Cell& cell = quickstart.cell;
+  TrialContext ctx(*quickstart.hw, robot, cell.statics, e.task, cell.perception, e.seed, 0);
+  ctx.gripper_opening = 0.01;
+  const Obstacle* floor = quickstart.part("bin_floor");
+  ASSERT_NE(floor, nullptr);
+  // A 4 cm cube set down on the bin's floor; the hand over it, pointing down, its fingers opened
+  // 1 cm each, the TCP 1 cm below the cube's top: both fingers inside it.
+  PickRecord placed;
+  placed.object = 0;
+  placed.at_target = true;
+  placed.half_size = Vec3::Constant(0.02);
+  const double top = floor->T_world.translation().z() + floor->size.z();
+  placed.T_world_target = makePose(Vec3(floor->T_world.translation().x(), floor->T_world.translation().y(), top + 0.02), Mat3::Identity());
+  ctx.out.picks.push_back(placed);
+  Rng rng = Rng::stream(1, 0, Purpose::kIk);
+  IkRequest req = e.task.ik;
+  req.target = makePose(placed.T_world_target.translation() + Vec3(0, 0, 0.01), Mat3(rotX(M_PI)));
+  req.seed = robot.home();
+  req.nearest = true;
+  const IkResult ik = ctx.ik->solve(req, rng);
+  ASSERT_TRUE(ik.ok());
+  ctx.q_rest = ik.q();
+  PlanningScene scene;
+  scene.obstacles = cell.statics;
+  Obstacle box;
+  box.size = placed.half_size;
+  box.T_world = placed.T_world_target;
+  box.name = "placed_0";
+  scene.obstacles.push_back(box);
+  scene.finger_opening = ctx.gripper_opening;
+  auto checker = makeChecker(e.task.checker, robot, scene, 0.0);
+  ASSERT_FALSE(checker->isValid(ctx.q_rest));
+  ASSERT_NE(checker->lastCollision().find("placed_0"), std::string::npos) << checker->lastCollision();
+
+  Plan plan;
+  const Failure f = planHome(ctx, plan);
+  ASSERT_TRUE(f.ok()) << f.reason;
+  ASSERT_GE(plan.steps.size(), 2u);
+  EXPECT_EQ(plan.steps.front().stage, "retreat");
+  EXPECT_EQ(plan.steps.back().stage, "return_home");
+  // Up off the cube: the retreat ends straight above where it started, clear of everything.
+  const JointTrajectory& up = plan.steps.front().trajectory;
+  const Pose T_start = robot.fk(ctx.q_rest), T_up = robot.fk(up.q.col(up.size() - 1));
+  EXPECT_NEAR(T_up.translation().x(), T_start.translation().x(), 1e-4);
+  EXPECT_NEAR(T_up.translation().y(), T_start.translation().y(), 1e-4);
+  EXPECT_GT(T_up.translation().z(), T_start.translation().z() + 0.05);
+  EXPECT_TRUE(checker->isValid(up.q.col(up.size() - 1))) << checker->lastCollision();
+}
+
 }  // namespace
 }  // namespace mm
