@@ -14,8 +14,7 @@ TEST(LeaveStaticPart, AFingerInsideTheBinsWallSlidesOutOfItsNearFaceThenRises) {
   const testing_task::QuickstartCell quickstart;
   const Experiment& e = quickstart.e;
   const RobotModel& robot = quickstart.robot;
-  const Cell& cell = quickstart.cell;
-  TrialContext ctx(*quickstart.hw, robot, cell.statics, e.task, cell.perception, e.seed, 0);
+  TrialContext ctx = quickstart.context(e.task);
   ctx.gripper_opening = 0.04;
 
   // The +x wall: the hand over the bin by it, pointing down, fingers closing along x, open.
@@ -23,7 +22,7 @@ TEST(LeaveStaticPart, AFingerInsideTheBinsWallSlidesOutOfItsNearFaceThenRises) {
   ASSERT_NE(wall, nullptr);
   const double inner = wall->T_world.translation().x() - wall->size.x();
   PlanningScene scene;
-  scene.obstacles = cell.statics;
+  scene.obstacles = quickstart.cell.statics;
   scene.finger_opening = ctx.gripper_opening;
   auto checker = makeChecker(e.task.checker, robot, scene, 0.0);
   Rng rng = Rng::stream(1, 0, Purpose::kIk);
@@ -75,16 +74,15 @@ TEST(LeaveStaticPart, AFingerInsideTheBinsWallSlidesOutOfItsNearFaceThenRises) {
     EXPECT_TRUE(checker->isValid(plan.steps[1].trajectory.q.col(k))) << k << ": " << checker->lastCollision();
 }
 
-// A hand whose finger is inside an object it set down (a stop as it let go, the object pushed
-// against the finger; it is not the object MoveToSafe leaves out as just placed when another came
-// after): MoveToHome's start is in collision, and its way out leaves the object out as it leaves
-// out a perceived one the hand is inside: up, then home.
+// A hand whose fingers are inside an object it set down (a stop as it let go): MoveToHome's start
+// is in collision, and its way out (which, unlike MoveToSafe's, does not leave out the object just
+// let go of by name) leaves the object out as it leaves out a perceived one the hand is inside:
+// up, then home.
 TEST(LeaveStaticPart, AHandInsideAnObjectItSetDownRisesOffItAndGoesHome) {
   const testing_task::QuickstartCell quickstart;
   const Experiment& e = quickstart.e;
   const RobotModel& robot = quickstart.robot;
-  const Cell& cell = quickstart.cell;
-  TrialContext ctx(*quickstart.hw, robot, cell.statics, e.task, cell.perception, e.seed, 0);
+  TrialContext ctx = quickstart.context(e.task);
   ctx.gripper_opening = 0.01;
   const Obstacle* floor = quickstart.part("bin_floor");
   ASSERT_NE(floor, nullptr);
@@ -106,7 +104,7 @@ TEST(LeaveStaticPart, AHandInsideAnObjectItSetDownRisesOffItAndGoesHome) {
   ASSERT_TRUE(ik.ok());
   ctx.q_rest = ik.q();
   PlanningScene scene;
-  scene.obstacles = cell.statics;
+  scene.obstacles = quickstart.cell.statics;
   Obstacle box;
   box.size = placed.half_size;
   box.T_world = placed.T_world_target;

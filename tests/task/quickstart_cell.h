@@ -8,6 +8,7 @@
 #include "campaign/trial.h"
 #include "sim/hardware.h"
 #include "sim/sim_world.h"
+#include "task/trial_context.h"
 
 namespace mm::testing_task {
 
@@ -21,6 +22,9 @@ struct QuickstartCell {
   QuickstartCell() = default;
   QuickstartCell(const QuickstartCell&) = delete;  // the cell and the hardware point at robot and world
   QuickstartCell& operator=(const QuickstartCell&) = delete;
+
+  /// Trial 0's context in this cell, with the task options `o`.
+  TrialContext context(const TaskOptions& o) const { return TrialContext(*hw, robot, cell.statics, o, cell.perception, e.seed, 0); }
 
   /// The static part `name` (nullptr: none).
   const Obstacle* part(const std::string& name) const {

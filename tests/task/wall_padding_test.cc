@@ -12,7 +12,6 @@ TEST(WallPadding, AGraspFromThePointsBesideTheBinsWallLeavesTheWallRoom) {
   const testing_task::QuickstartCell q;
   const Experiment& e = q.e;
   const RobotModel& robot = q.robot;
-  const Cell& cell = q.cell;
   const Obstacle *wall = q.part("bin_wall_xp"), *floor = q.part("bin_floor");
   ASSERT_NE(wall, nullptr);
   ASSERT_NE(floor, nullptr);
@@ -27,7 +26,7 @@ TEST(WallPadding, AGraspFromThePointsBesideTheBinsWallLeavesTheWallRoom) {
     o.finger_margin = 0.006;
     o.cloud_padding = 0.002;
     o.wall_padding = wall_padding;
-    TrialContext ctx(*q.hw, robot, cell.statics, o, cell.perception, e.seed, 0);
+    TrialContext ctx = q.context(o);
     ctx.q_rest = robot.home();
     ObjectState box;
     box.index = 0;
