@@ -652,7 +652,10 @@ void registerTaskNodes(Factory& f, TaskNodeEnv& env) {
   add<MoveToSafe>(f, env, "MoveToSafe",
                   "A straight move of the TCP up by motion.retreat_distance from where it is; from inside a static part of "
                   "the cell (a finger left in a wall), first a short horizontal move out of it, the way it leaves soonest.");
-  add<OpenGripper>(f, env, "OpenGripper", "Opens the gripper fully; a held object is let go of (placed, if a place plan brought it over its target).");
+  add<OpenGripper>(f, env, "OpenGripper",
+                   "Opens the gripper fully, or, where open fingers would come within 3 mm of a part of the cell (a bin's wall "
+                   "beside a hand stopped in the bin), as far as keeps them 3 mm from it; a held object is let go of (placed, if "
+                   "a place plan brought it over its target).");
   add<CloseGripper>(f, env, "CloseGripper",
                     "Closes the gripper with the grasp force; a detected object left between the fingers becomes the held one.");
   add<IsSystemHealthy>(f, env, "IsSystemHealthy",

@@ -222,9 +222,46 @@ Failure planRetreatUp(TrialContext& ctx, double distance, Plan& out) {
   return {};
 }
 
+namespace {
+
+// How far the fingers may open where the arm rests: to `opening`, or, where fingers that open
+// would come within 3 mm of a part of the cell (a bin's wall beside a hand that stopped on its way
+// up after a missed grasp), the widest opening that keeps them that far from every part, found by
+// halving to a quarter of a millimetre, and never less than they are open now (a hand already
+// that near a part stays as it is). Only the cell's parts are checked: what is between or beside
+// the fingers is what opening lets go of. A real gripper opening against a wall stalls on it; the
+// simulator's pushes on into it, a collision (seed 3's packed round 116, with the cut at a waist).
+double roomToOpen(TrialContext& ctx, double opening) {
+  constexpr double kRoom = 0.003;  // [m] the fingers' clearance from the parts: the arm held at a stop gives a little
+  PlanningScene s;
+  s.obstacles = ctx.statics;
+  long checks = 0;
+  auto fits = [&](double w) {
+    s.finger_opening = w;
+    auto checker = makeChecker(ctx.options.checker, ctx.robot, s, kRoom);
+    const bool valid = checker->isValid(ctx.q_rest);
+    checks += checker->checks();
+    return valid;
+  };
+  double lo = ctx.gripper_opening, hi = opening;
+  if (!fits(hi)) {
+    if (fits(lo))
+      while (hi - lo > 2.5e-4) {
+        const double mid = (lo + hi) / 2;
+        (fits(mid) ? lo : hi) = mid;
+      }
+    opening = lo;
+  }
+  ctx.out.collision_checks += checks;
+  return opening;
+}
+
+}  // namespace
+
 Plan gripperPlan(TrialContext& ctx, double opening, const std::string& stage) {
   Plan p;
   const bool opens = opening > ctx.gripper_opening;
+  if (opens) opening = roomToOpen(ctx, opening);
   p.q_start = ctx.q_rest;
   p.name = "gripper";
   p.bucket = ctx.held >= 0 ? TimeBucket::kPlace : TimeBucket::kPick;
