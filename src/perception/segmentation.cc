@@ -13,6 +13,7 @@
 #include <stdexcept>
 
 #include <Eigen/Eigenvalues>
+#include <opencv2/imgproc.hpp>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/common/io.h>
@@ -247,6 +248,88 @@ void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<i
   }
 }
 
+// A segment that holds two objects side by side (LCCP took the valley between them for convex, or
+// the join by size put them together) often shows it in its outline: seen from above, each solid
+// is convex, and where they touch the outline narrows to a waist between two concavities. Each
+// segment of at least twice min_pixels: its instance mask's outer contour, its convex hull's
+// defects at least `depth_px` deep (OpenCV), and of every pair of their deepest points the line
+// between them that parts the segment's pixels into two of at least min_pixels each, the one
+// shortest against the square root of its smaller part (the waist of two blobs, not a cut
+// across one); kept under `ratio`. The segment is cut along that line: its pixels (each with its
+// point) by their side of it; the second part is added after the others, not cut again.
+// OpenCV's contour and hull functions run on this thread.
+void splitAtWaists(const Frame& frame, std::vector<Segment>& segments, const SegmentationOptions& o, const Pose& T_region_world) {
+  const CameraModel& cam = frame.camera;
+  const int w = cam.width;
+  const size_t n = segments.size();
+  for (size_t s = 0; s < n; ++s) {
+    Segment& seg = segments[s];
+    if (static_cast<int>(seg.pixels.size()) < 2 * o.min_pixels) continue;
+    // The concavity's depth in pixels at the segment's mean distance along the camera's axis.
+    const Pose T_camera_world = cam.T_world_camera.inverse();
+    double z = 0;
+    for (const Vec3& p : seg.points) z += (T_camera_world * p).z();
+    z /= static_cast<double>(seg.points.size());
+    if (!(z > 0)) continue;
+    const double depth_px = o.waist_depth * cam.fx / z;
+    const std::vector<int> mask = segmentMasks(frame, {seg}).front();
+    int u0 = w, v0 = cam.height, u1 = -1, v1 = -1;
+    for (int p : mask) u0 = std::min(u0, p % w), u1 = std::max(u1, p % w), v0 = std::min(v0, p / w), v1 = std::max(v1, p / w);
+    cv::Mat image = cv::Mat::zeros(v1 - v0 + 3, u1 - u0 + 3, CV_8U);  // a pixel of margin all round
+    for (int p : mask) image.at<unsigned char>(p / w - v0 + 1, p % w - u0 + 1) = 255;
+    std::vector<std::vector<cv::Point>> contours;
+    cv::findContours(image, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+    if (contours.empty()) continue;
+    size_t outer = 0;  // the longest (then the first)
+    for (size_t k = 1; k < contours.size(); ++k)
+      if (contours[k].size() > contours[outer].size()) outer = k;
+    const std::vector<cv::Point>& contour = contours[outer];
+    if (contour.size() < 8) continue;
+    std::vector<int> hull;
+    cv::convexHull(contour, hull, false, false);
+    if (hull.size() < 4) continue;
+    std::sort(hull.begin(), hull.end());  // convexityDefects wants the hull's indices monotonic
+    std::vector<cv::Vec4i> defects;
+    try {
+      cv::convexityDefects(contour, hull, defects);
+    } catch (const cv::Exception&) {  // a self-intersecting contour (a one-pixel neck): no cut
+      continue;
+    }
+    std::vector<cv::Point> deepest;
+    for (const cv::Vec4i& d : defects)
+      if (d[3] / 256.0 >= depth_px) deepest.push_back(contour[static_cast<size_t>(d[2])]);
+    if (deepest.size() < 2) continue;
+    // Which side of the line a -> b a pixel is on (in the image's frame of the contour).
+    auto side = [&](int p, const cv::Point& a, const cv::Point& b) {
+      const long x = p % w - u0 + 1 - a.x, y = p / w - v0 + 1 - a.y;
+      return static_cast<long>(b.x - a.x) * y - static_cast<long>(b.y - a.y) * x > 0;
+    };
+    double best = o.waist_ratio;
+    int bi = -1, bj = -1;
+    for (size_t i = 0; i < deepest.size(); ++i)
+      for (size_t j = i + 1; j < deepest.size(); ++j) {
+        const double length = std::hypot(deepest[j].x - deepest[i].x, deepest[j].y - deepest[i].y);
+        if (length < 1) continue;
+        int left = 0;
+        for (int p : seg.pixels) left += side(p, deepest[i], deepest[j]);
+        const int smaller = std::min(left, static_cast<int>(seg.pixels.size()) - left);
+        if (smaller < o.min_pixels) continue;
+        const double ratio = length / std::sqrt(static_cast<double>(smaller));
+        if (ratio < best) best = ratio, bi = static_cast<int>(i), bj = static_cast<int>(j);
+      }
+    if (bi < 0) continue;
+    Segment one, two;
+    for (size_t k = 0; k < seg.pixels.size(); ++k) {
+      Segment& to = side(seg.pixels[k], deepest[static_cast<size_t>(bi)], deepest[static_cast<size_t>(bj)]) ? one : two;
+      to.pixels.push_back(seg.pixels[k]);
+      to.points.push_back(seg.points[k]);
+      to.top = std::max(to.top, (T_region_world * seg.points[k]).z());
+    }
+    seg = std::move(one);
+    segments.push_back(std::move(two));
+  }
+}
+
 // The segments as objects (min_pixels or more), as pieces too small to be objects but rising above
 // the floor's noise (Segmentation::small), or dropped; each list by its first pixel.
 void keepSegments(std::vector<Segment>& segments, const SegmentationOptions& o, Segmentation& out) {
@@ -471,6 +554,7 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
         }
       }
     joinWithinObjectSize(segments, near, T_region_world, o.max_object_length, o.max_object_width);
+    if (o.waist_depth > 0) splitAtWaists(frame, segments, o, T_region_world);
   }
   keepSegments(segments, o, out);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -8,7 +8,8 @@
 //   between them is convex or smooth -> LCCP's segments joined where the connections between them
 //   are mostly convex ones only its sanity criterion refused -> a segment larger than any object
 //   cut again at a tighter concavity -> neighbouring segments joined while
-//   their points together fit what an object can measure seen from above -> segments, each the
+//   their points together fit what an object can measure seen from above -> a segment whose
+//   outline narrows to a waist between two deep concavities cut there -> segments, each the
 //   pixels of its points.
 // Reads only the frame's depth and its camera (the extrinsics as calibrated) and the bin's known
 // geometry. Every PCL call runs on this thread; the same image gives the same segments.
@@ -58,6 +59,15 @@ struct SegmentationOptions {
   /// pieces of at most min_supervoxels join their largest neighbour within it. After the join of
   /// faces seen edge on, before LCCP's rule for small segments and the join by size.
   double recut_tolerance = 12.0;
+  /// [m] A segment whose outline seen in the image (its instance mask) has two concavities at
+  /// least this deep (OpenCV's convexity defects, converted to pixels at the segment's depth) is
+  /// cut along the line between their deepest points, when that line is short: under
+  /// `waist_ratio` times the square root of the smaller part's pixels (two touching solids, each
+  /// convex from above, meet at such a waist), and each part has min_pixels. The shortest such
+  /// cut first; a part is not cut again. Only with the objects' size limits (max_object_length,
+  /// max_object_width), after the join by size; 0: never.
+  double waist_depth = 0.01;
+  double waist_ratio = 0.6;
   // Region growing (PCL's RegionGrowing; its names) and clustering with normals (PCL's
   // ConditionalEuclideanClustering), each at the best of the settings measured.
   int grow_neighbours = 32;            ///< region growing: the nearest points a normal is fitted to, and its neighbours
