@@ -71,7 +71,86 @@ double Rng::normal() {
   return r * std::cos(2.0 * M_PI * u2);
 }
 
+namespace {
+
+// The ziggurat of the normal density's right half, f(x) = exp(-x^2/2) (unnormalized): 128 layers
+// of equal area v, layer 0 the base (a rectangle under f(r) widened by the tail beyond r to area v),
+// layer i >= 1 the rectangle [0, x[i]) x [f(x[i]), f(x[i+1])]. The constants r and v are the
+// published ones for 128 layers (Marsaglia & Tsang 2000, Table 1). ratio[i] = x[i+1] / x[i]: a
+// point of layer i below it lies under f whatever its height.
+struct Ziggurat {
+  static constexpr int kLayers = 128;
+  static constexpr double kR = 3.442619855899, kV = 9.91256303526217e-3;
+  double x[kLayers + 1];
+  double ratio[kLayers];
+  Ziggurat() {
+    double f = std::exp(-0.5 * kR * kR);
+    x[0] = kV / f;
+    x[1] = kR;
+    for (int i = 2; i < kLayers; ++i) {
+      x[i] = std::sqrt(-2 * std::log(kV / x[i - 1] + f));
+      f = std::exp(-0.5 * x[i] * x[i]);
+    }
+    x[kLayers] = 0;
+    for (int i = 0; i < kLayers; ++i) ratio[i] = x[i + 1] / x[i];
+  }
+};
+
+const Ziggurat& ziggurat() {
+  static const Ziggurat z;
+  return z;
+}
+
+}  // namespace
+
+double Rng::zigguratNormal() {
+  // One 64-bit draw: its low 7 bits pick the layer, its top 53 a point across it in [-1, 1).
+  const uint64_t b = next();
+  const int i = static_cast<int>(b & (Ziggurat::kLayers - 1));
+  const double u = static_cast<double>(b >> 11) * 0x1.0p-52 - 1.0;
+  const Ziggurat& z = ziggurat();
+  return std::abs(u) < z.ratio[i] ? u * z.x[i] : zigguratBeyondCore(i, u);
+}
+
+double Rng::zigguratBeyondCore(int i, double u) {
+  const Ziggurat& z = ziggurat();
+  for (;;) {
+    if (i == 0) {  // the tail beyond r (Marsaglia 1964)
+      double t, y;
+      do {
+        double u1, u2;
+        do u1 = uniform(); while (u1 <= 0.0);
+        do u2 = uniform(); while (u2 <= 0.0);
+        t = std::log(u1) / Ziggurat::kR;
+        y = std::log(u2);
+      } while (-2 * y < t * t);
+      return u < 0 ? t - Ziggurat::kR : Ziggurat::kR - t;
+    }
+    // The layer's edge, beyond x[i+1]: under f only where a uniform height says so.
+    const double x = u * z.x[i];
+    const double f0 = std::exp(-0.5 * (z.x[i] * z.x[i] - x * x)), f1 = std::exp(-0.5 * (z.x[i + 1] * z.x[i + 1] - x * x));
+    if (f1 + uniform() * (f0 - f1) < 1.0) return x;
+    const uint64_t b = next();  // rejected: a draw afresh, as zigguratNormal's
+    i = static_cast<int>(b & (Ziggurat::kLayers - 1));
+    u = static_cast<double>(b >> 11) * 0x1.0p-52 - 1.0;
+    if (std::abs(u) < z.ratio[i]) return u * z.x[i];
+  }
+}
+
 void Rng::normalsAndUniforms(double* normals, double* uniforms, size_t n) {
+  const Ziggurat& z = ziggurat();
+  for (size_t k = 0; k < n; ++k) {
+    // One 64-bit draw for both where it can: the layer from bits 0-6, the uniform from bits 7-30,
+    // the point across the layer from bits 31-63.
+    const uint64_t b = next();
+    uniforms[k] = static_cast<double>((b >> 7) & 0xFFFFFF) * 0x1.0p-24;
+    const int i = static_cast<int>(b & (Ziggurat::kLayers - 1));
+    const double u = static_cast<double>(b >> 31) * 0x1.0p-32 - 1.0;
+    normals[k] = std::abs(u) < z.ratio[i] ? u * z.x[i] : zigguratBeyondCore(i, u);
+  }
+}
+
+void Rng::boxMullerNormalsAndUniforms(double* normals, double* uniforms, size_t n) {
   size_t i = 0;
   if (n > 0 && has_spare_) {  // the pair drawn last time ends here
     normals[i] = normal();

@@ -728,18 +728,26 @@ namespace {
 std::vector<char> depthEdges(const std::vector<float>& depth, int w, int h, double jump) {
   const size_t n = static_cast<size_t>(w) * static_cast<size_t>(h);
   constexpr float kInf = std::numeric_limits<float>::infinity();
-  std::vector<float> lo(n), hi(n);  // over each pixel's row of three
+  // Over each pixel's row of three: the least valid depth (+inf if none) and the greatest (-inf).
+  // Branch-free loops the compiler vectorizes (min and max of floats are exact: the same values).
+  std::vector<float> lo(n), hi(n), a(static_cast<size_t>(w)), b(static_cast<size_t>(w));
   for (int v = 0; v < h; ++v) {
     const float* row = depth.data() + static_cast<size_t>(v) * w;
     float* l = lo.data() + static_cast<size_t>(v) * w;
     float* g = hi.data() + static_cast<size_t>(v) * w;
     for (int u = 0; u < w; ++u) {
-      float a = kInf, b = -kInf;
-      for (const int uu : {std::max(u - 1, 0), u, std::min(u + 1, w - 1)}) {
-        const float z = row[uu];
-        if (z > 0) a = std::min(a, z), b = std::max(b, z);
-      }
-      l[u] = a, g[u] = b;
+      const bool valid = row[u] > 0;  // not a NaN either
+      a[u] = valid ? row[u] : kInf;
+      b[u] = valid ? row[u] : -kInf;
+    }
+    for (int u = 1; u + 1 < w; ++u) {
+      l[u] = std::min(std::min(a[u - 1], a[u]), a[u + 1]);
+      g[u] = std::max(std::max(b[u - 1], b[u]), b[u + 1]);
+    }
+    for (const int u : {0, w - 1}) {  // the border repeated
+      const int u0 = std::max(u - 1, 0), u1 = std::min(u + 1, w - 1);
+      l[u] = std::min(std::min(a[u0], a[u]), a[u1]);
+      g[u] = std::max(std::max(b[u0], b[u]), b[u1]);
     }
   }
   std::vector<char> edge(n);
@@ -747,8 +755,9 @@ std::vector<char> depthEdges(const std::vector<float>& depth, int w, int h, doub
     const size_t up = static_cast<size_t>(std::max(v - 1, 0)) * w, at = static_cast<size_t>(v) * w,
                  down = static_cast<size_t>(std::min(v + 1, h - 1)) * w;
     for (int u = 0; u < w; ++u) {
-      const float a = std::min({lo[up + u], lo[at + u], lo[down + u]}), b = std::max({hi[up + u], hi[at + u], hi[down + u]});
-      edge[at + u] = depth[at + u] > 0 && b - a > jump;
+      const float least = std::min(std::min(lo[up + u], lo[at + u]), lo[down + u]);
+      const float most = std::max(std::max(hi[up + u], hi[at + u]), hi[down + u]);
+      edge[at + u] = static_cast<char>((depth[at + u] > 0) & (static_cast<double>(most - least) > jump));
     }
   }
   return edge;
@@ -763,13 +772,16 @@ void applyDepthNoise(Frame& f, const DepthNoise& noise, Rng& rng) {
   for (int v = 0; v < h; ++v) {
     // Every pixel draws the same numbers whatever happens to it, so the streams stay aligned: a
     // normal then a uniform, a row at a time.
-    rng.normalsAndUniforms(gauss_row.data(), drop_row.data(), gauss_row.size());
+    if (noise.sampler == NoiseSampler::kBoxMuller) rng.boxMullerNormalsAndUniforms(gauss_row.data(), drop_row.data(), gauss_row.size());
+    else rng.normalsAndUniforms(gauss_row.data(), drop_row.data(), gauss_row.size());
     const size_t row = static_cast<size_t>(v) * static_cast<size_t>(w);
-    for (size_t u = 0; u < static_cast<size_t>(w); ++u) {
-      float& z = f.depth[row + u];
-      if (z <= 0) continue;
-      if (drop_row[u] < noise.edge_dropout && edge[row + u]) z = 0;  // lost where the depth jumps
-      else z = static_cast<float>(z + gauss_row[u] * noise.k * z * z);
+    float* d = f.depth.data() + row;
+    const char* e = edge.data() + row;
+    for (size_t u = 0; u < static_cast<size_t>(w); ++u) {  // branch-free: the drops are a coin's toss
+      const float z = d[u];
+      const bool lost = (drop_row[u] < noise.edge_dropout) & (e[u] != 0);  // lost where the depth jumps
+      const float noisy = static_cast<float>(z + gauss_row[u] * noise.k * z * z);
+      d[u] = z <= 0 ? z : lost ? 0.0f : noisy;
     }
   }
 }

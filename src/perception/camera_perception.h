@@ -80,10 +80,15 @@ CameraPerceptionResult detectKnownObjects(const Frame& frame, const std::vector<
 /// A stereo camera's depth noise: sigma = k z^2 (k [1/m]: 0.0015 gives 1.5 mm at 1 m), and at
 /// depth edges (a 3x3 neighbourhood spanning more than `edge_jump`) a pixel is lost with
 /// probability `edge_dropout`, as stereo matching fails there.
+/// How the noise's normals are drawn: the ziggurat (Rng::normalsAndUniforms, a 64-bit draw a
+/// pixel), or Box-Muller (Rng::boxMullerNormalsAndUniforms, as before 2026-12-06, about 2.5 times
+/// the cost: the camera-mode figures measured before then come back with it, number for number).
+enum class NoiseSampler { kZiggurat, kBoxMuller };
 struct DepthNoise {
   double k = 0.0015;
   double edge_jump = 0.01;      ///< [m]
   double edge_dropout = 0.5;
+  NoiseSampler sampler = NoiseSampler::kZiggurat;
 };
 void applyDepthNoise(Frame& frame, const DepthNoise& noise, Rng& rng);
 

@@ -44,6 +44,10 @@ void PerceptionOptions::declare(ConfigArchive& a) {
           "model; a segment no model explains is an unknown object; false: every mesh object is unknown (its segment's columns)");
   a.value("edge_dropout", noise.edge_dropout, {0.0, 1.0}, "",
           "camera mode: the chance a pixel at a depth edge (its 3x3 neighbourhood spanning more than 1 cm) has no depth, as stereo matching fails there");
+  a.named("depth_noise_sampler", noise.sampler, {{"ziggurat", NoiseSampler::kZiggurat}, {"box_muller", NoiseSampler::kBoxMuller}},
+          "camera mode: how the depth noise's normals are drawn, one a pixel: ziggurat (a 64-bit draw a pixel, the default since "
+          "2026-12-06); box_muller (as before then, about 2.5 times the cost: the camera-mode figures measured before then come back "
+          "with it, number for number)");
 }
 
 SegmentationOptions segmentationOptions(const PerceptionOptions& o) {

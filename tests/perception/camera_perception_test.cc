@@ -191,7 +191,8 @@ void depthNoisePixelByPixel(Frame& f, const DepthNoise& noise, Rng& rng) {
   const std::vector<float> z0 = f.depth;
   for (int v = 0; v < h; ++v)
     for (int u = 0; u < w; ++u) {
-      const double gauss = rng.normal(), drop = rng.uniform();
+      double gauss, drop;
+      rng.normalsAndUniforms(&gauss, &drop, 1);
       float& z = f.depth[static_cast<size_t>(v) * w + u];
       if (z <= 0) continue;
       if (drop < noise.edge_dropout) {

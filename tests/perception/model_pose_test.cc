@@ -139,7 +139,8 @@ struct Score {
   std::vector<double> errors;  // MSSD / diameter of each visible object posed with its own model
 };
 
-void scorePile(SimWorld& w, const ModelPoseEstimator& est, uint64_t trial, int width, int height, bool labels, bool verbose, Score& score) {
+void scorePile(SimWorld& w, const ModelPoseEstimator& est, uint64_t trial, int width, int height, bool labels, bool verbose, Score& score,
+               NoiseSampler sampler) {
   const auto [T_bin, half] = w.site("bin_region");
   SpawnOptions so;
   so.kinds = kKinds;
@@ -157,7 +158,9 @@ void scorePile(SimWorld& w, const ModelPoseEstimator& est, uint64_t trial, int w
   const size_t n = r.active.size();
   const testing_render::ObjectPixels px = testing_render::objectPixels(w, cam, r.active, frame);
   Rng noise = Rng::stream(1, trial, Purpose::kCamera);
-  if (!std::getenv("MM_NOISE_FREE")) applyDepthNoise(frame, DepthNoise{}, noise);
+  DepthNoise depth_noise;
+  depth_noise.sampler = sampler;
+  if (!std::getenv("MM_NOISE_FREE")) applyDepthNoise(frame, depth_noise, noise);
   SegmentationOptions o;
   o.T_world_region = T_bin;
   o.region_half = half;
@@ -239,7 +242,8 @@ void scorePile(SimWorld& w, const ModelPoseEstimator& est, uint64_t trial, int w
   }
 }
 
-Score scorePiles(int piles, int width, bool labels, bool verbose, const ModelPoseOptions& po = {}, int first = 0) {
+Score scorePiles(int piles, int width, bool labels, bool verbose, const ModelPoseOptions& po = {}, int first = 0,
+                 NoiseSampler sampler = NoiseSampler::kZiggurat) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   SpawnOptions so;
   so.kinds = kKinds;
@@ -248,7 +252,7 @@ Score scorePiles(int piles, int width, bool labels, bool verbose, const ModelPos
   const ModelPoseEstimator est(models(so.loaded), po);
   std::printf("trained in %.2f s\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   Score s;
-  for (int t = first; t < first + piles; ++t) scorePile(*w, est, static_cast<uint64_t>(t), width, width * 3 / 4, labels, verbose, s);
+  for (int t = first; t < first + piles; ++t) scorePile(*w, est, static_cast<uint64_t>(t), width, width * 3 / 4, labels, verbose, s, sampler);
   std::printf("%s segments, %d piles at %dx%d, seed 1: %d objects visible >= 0.5, %d with a segment, %d posed, %d right "
               "(MSSD < 0.1 d: %.1f%%), %d as another model; %.1f ms a segment\n",
               labels ? "the labels'" : "the depth's", piles, width, width * 3 / 4, s.visible, s.visible - s.unmatched, s.posed, s.right,
@@ -289,14 +293,18 @@ TEST(ModelPose, PosesTheKnownObjectsOfDroppedPilesFromTheDepthsSegments) {
   EXPECT_GE(s.right_view, 0.9 * s.visible);
 }
 
+// The cases below were found in views whose noise Box-Muller drew (before 2026-12-06): they are
+// scored with that noise, the views as they were found.
+constexpr NoiseSampler kAsFound = NoiseSampler::kBoxMuller;
+
 // Piles 18 and 19 of seed 1 each hold a chamfered block lying on its side: its votes put it turned
 // over (the chamfer at the wrong end; its true pose verifies at 1.00, the turned one at 0.95-0.97).
 // The best pose's half turns, refined and verified, find it (docs/perception.md, step 3).
 TEST(ModelPose, AChamferedBlockOnItsSideIsNotPosedTurnedOver) {
   ModelPoseOptions off;
   off.turns = false;
-  const Score without = scorePiles(2, 1280, true, false, off, 18);
-  const Score with = scorePiles(2, 1280, true, false, {}, 18);
+  const Score without = scorePiles(2, 1280, true, false, off, 18, kAsFound);
+  const Score with = scorePiles(2, 1280, true, false, {}, 18, kAsFound);
   ASSERT_EQ(with.visible, without.visible);
   EXPECT_GE(with.right, without.right + 2);
 }
@@ -308,8 +316,8 @@ TEST(ModelPose, AChamferedBlockOnItsSideIsNotPosedTurnedOver) {
 TEST(ModelPose, AStepBlockSplitAtItsStepIsPosedByItsFaces) {
   ModelPoseOptions off;
   off.plane_faces = false;
-  const Score without = scorePiles(2, 1280, false, false, off, 6);
-  const Score with = scorePiles(2, 1280, false, false, {}, 6);
+  const Score without = scorePiles(2, 1280, false, false, off, 6, kAsFound);
+  const Score with = scorePiles(2, 1280, false, false, {}, 6, kAsFound);
   ASSERT_EQ(with.visible, without.visible);
   EXPECT_GE(with.right_view, without.right_view + 2);
 }
@@ -383,7 +391,8 @@ TEST(ModelPose, ACameraModeRoundPosesTheKnownObjectsByTheirModels) {
   EXPECT_NE(again.out.find("matches its line"), std::string::npos) << again.out;
 }
 
-// Two rounds of experiments/known_objects.yaml (seed 1) that each ended with objects left before:
+// Two rounds of experiments/known_objects.yaml (seed 1; the noise drawn by Box-Muller, as they were
+// found before 2026-12-06) that each ended with objects left before:
 // in round 49 the boxes of an object posed on the bin's floor reached below it, and every lift
 // "met" the floor (two left); in round 17 the hand stopped twice in a row on one object's slope, pushed it a
 // little each time, and the round ended with seven left. Now the lift leaves the cell's parts the
@@ -392,7 +401,8 @@ TEST(ModelPose, ACameraModeRoundPosesTheKnownObjectsByTheirModels) {
 TEST(ModelPose, AMeshsBoxesPastTheFloorAndAFailedPickDoNotEndARound) {
   TempDir d;
   const testing_cli::RunResult r =
-      runMinimanip("run experiments/known_objects.yaml --only 17,49 --jobs 1 --set progress=none --out " + (d.path() / "out").string());
+      runMinimanip("run experiments/known_objects.yaml --only 17,49 --jobs 1 --set progress=none "
+                   "--set perception.depth_noise_sampler=box_muller --out " + (d.path() / "out").string());
   ASSERT_EQ(r.code, 0) << r.out;
   const auto trials = testing_cli::readTrials(d.path() / "out");
   ASSERT_EQ(trials.size(), 2u);
