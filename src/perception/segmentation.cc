@@ -262,11 +262,11 @@ void splitAtWaists(const Frame& frame, std::vector<Segment>& segments, const Seg
   const CameraModel& cam = frame.camera;
   const int w = cam.width;
   const size_t n = segments.size();
+  const Pose T_camera_world = cam.T_world_camera.inverse();
   for (size_t s = 0; s < n; ++s) {
     Segment& seg = segments[s];
     if (static_cast<int>(seg.pixels.size()) < 2 * o.min_pixels) continue;
     // The concavity's depth in pixels at the segment's mean distance along the camera's axis.
-    const Pose T_camera_world = cam.T_world_camera.inverse();
     double z = 0;
     for (const Vec3& p : seg.points) z += (T_camera_world * p).z();
     z /= static_cast<double>(seg.points.size());

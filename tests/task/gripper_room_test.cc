@@ -33,13 +33,7 @@ TEST(GripperRoom, ClosedFingersBesideTheBinsWallOpenOnlyAsFarAsTheWallLeavesRoom
   };
   Rng rng = Rng::stream(1, 0, Purpose::kIk);
   auto restAt = [&](const Pose& T_tcp) {
-    IkRequest req = e.task.ik;
-    req.target = T_tcp;
-    req.seed = ctx.q_rest.size() ? ctx.q_rest : robot.home();
-    req.nearest = true;
-    const IkResult r = ctx.ik->solve(req, rng);
-    if (r.ok()) ctx.q_rest = r.q();
-    return r.ok();
+    return testing_task::ikNearest(ctx, e.task.ik, T_tcp, ctx.q_rest.size() ? ctx.q_rest : robot.home(), rng, ctx.q_rest);
   };
   // The hand over the bin, pointing down, its fingers closing along x (towards the wall).
   Pose T = makePose(Vec3(inner - 0.1, wall->T_world.translation().y(), 0.045), Mat3(rotX(M_PI) * rotZ(M_PI / 2)));

@@ -26,15 +26,7 @@ TEST(LeaveStaticPart, AFingerInsideTheBinsWallSlidesOutOfItsNearFaceThenRises) {
   scene.finger_opening = ctx.gripper_opening;
   auto checker = makeChecker(e.task.checker, robot, scene, 0.0);
   Rng rng = Rng::stream(1, 0, Purpose::kIk);
-  auto ikFrom = [&](const Pose& T_tcp, const VecX& seed, VecX& q) {
-    IkRequest req = e.task.ik;
-    req.target = T_tcp;
-    req.seed = seed;
-    req.nearest = true;
-    const IkResult r = ctx.ik->solve(req, rng);
-    if (r.ok()) q = r.q();
-    return r.ok();
-  };
+  auto ikFrom = [&](const Pose& T_tcp, const VecX& seed, VecX& q) { return testing_task::ikNearest(ctx, e.task.ik, T_tcp, seed, rng, q); };
   Pose T = makePose(Vec3(inner - 0.1, wall->T_world.translation().y(), 0.045), Mat3(rotX(M_PI) * rotZ(M_PI / 2)));
   VecX q = robot.home();
   // Toward the wall in 1 mm steps until a finger meets it, then 4 mm into it.
@@ -96,13 +88,8 @@ TEST(LeaveStaticPart, AHandInsideAnObjectItSetDownRisesOffItAndGoesHome) {
   placed.T_world_target = makePose(Vec3(floor->T_world.translation().x(), floor->T_world.translation().y(), top + 0.02), Mat3::Identity());
   ctx.out.picks.push_back(placed);
   Rng rng = Rng::stream(1, 0, Purpose::kIk);
-  IkRequest req = e.task.ik;
-  req.target = makePose(placed.T_world_target.translation() + Vec3(0, 0, 0.01), Mat3(rotX(M_PI)));
-  req.seed = robot.home();
-  req.nearest = true;
-  const IkResult ik = ctx.ik->solve(req, rng);
-  ASSERT_TRUE(ik.ok());
-  ctx.q_rest = ik.q();
+  ASSERT_TRUE(testing_task::ikNearest(ctx, e.task.ik, makePose(placed.T_world_target.translation() + Vec3(0, 0, 0.01), Mat3(rotX(M_PI))),
+                                      robot.home(), rng, ctx.q_rest));
   PlanningScene scene;
   scene.obstacles = quickstart.cell.statics;
   Obstacle box;

@@ -6,6 +6,8 @@
 
 #include "campaign/experiment.h"
 #include "campaign/trial.h"
+#include "core/rng.h"
+#include "kinematics/ik.h"
 #include "sim/hardware.h"
 #include "sim/sim_world.h"
 #include "task/trial_context.h"
@@ -33,5 +35,17 @@ struct QuickstartCell {
     return nullptr;
   }
 };
+
+/// The arm's joints with the TCP at T_tcp, by ctx's IK solver with the request `base` asks for,
+/// the solution nearest `seed`, into q (left as it is when there is none); whether there is one.
+inline bool ikNearest(TrialContext& ctx, const IkRequest& base, const Pose& T_tcp, const VecX& seed, Rng& rng, VecX& q) {
+  IkRequest req = base;
+  req.target = T_tcp;
+  req.seed = seed;
+  req.nearest = true;
+  const IkResult r = ctx.ik->solve(req, rng);
+  if (r.ok()) q = r.q();
+  return r.ok();
+}
 
 }  // namespace mm::testing_task
