@@ -85,6 +85,8 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
   Rng noise = Rng::stream(seed, trial, Purpose::kCamera);
   DepthNoise depth_noise;
   depth_noise.sampler = sampler;
+  // MM_SAMPLER=box_muller: the noise as drawn before 2026-12-06 (the tables measured then).
+  if (const char* env = std::getenv("MM_SAMPLER"); env && std::string(env) == "box_muller") depth_noise.sampler = NoiseSampler::kBoxMuller;
   if (!std::getenv("MM_NOISE_FREE")) applyDepthNoise(frame, depth_noise, noise);
 
   SegmentationOptions o;
