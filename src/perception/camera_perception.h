@@ -77,13 +77,13 @@ struct CameraPerceptionResult {
 CameraPerceptionResult detectKnownObjects(const Frame& frame, const std::vector<KnownShape>& shapes,
                                    const CameraPerceptionOptions& options, Rng& rng);
 
-/// A stereo camera's depth noise: sigma = k z^2 (k [1/m]: 0.0015 gives 1.5 mm at 1 m), and at
-/// depth edges (a 3x3 neighbourhood spanning more than `edge_jump`) a pixel is lost with
-/// probability `edge_dropout`, as stereo matching fails there.
-/// How the noise's normals are drawn: the ziggurat (Rng::normalsAndUniforms, a 64-bit draw a
+/// How a depth noise's normals are drawn: the ziggurat (Rng::normalsAndUniforms, a 64-bit draw a
 /// pixel), or Box-Muller (Rng::boxMullerNormalsAndUniforms, as before 2026-12-06, about 2.5 times
 /// the cost: the camera-mode figures measured before then come back with it, number for number).
 enum class NoiseSampler { kZiggurat, kBoxMuller };
+/// A stereo camera's depth noise: sigma = k z^2 (k [1/m]: 0.0015 gives 1.5 mm at 1 m), and at
+/// depth edges (a 3x3 neighbourhood spanning more than `edge_jump`) a pixel is lost with
+/// probability `edge_dropout`, as stereo matching fails there.
 struct DepthNoise {
   double k = 0.0015;
   double edge_jump = 0.01;      ///< [m]
