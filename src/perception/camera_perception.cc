@@ -723,18 +723,48 @@ CameraPerceptionResult detectKnownObjects(const Frame& frame, const std::vector<
 // Whether each pixel of a depth image (w x h) lies on an edge: its 3x3 neighbourhood (the image's
 // border repeated) holds valid depths (> 0) spanning more than `jump`. The neighbourhood's least
 // and greatest valid depths, by rows then by columns (a min and max filter: the same values as
-// read pixel by pixel, whatever the order). Only a pixel with a depth can be on an edge.
+// read pixel by pixel, whatever the order). Only a pixel with a depth can be on an edge. A row at
+// a time, from three rows' filters kept in turn (nothing image-sized: the row's edges are found
+// before the noise is written over it, and the row below is read while still as rendered).
 namespace {
-std::vector<char> depthEdges(const std::vector<float>& depth, int w, int h, double jump) {
-  const size_t n = static_cast<size_t>(w) * static_cast<size_t>(h);
-  constexpr float kInf = std::numeric_limits<float>::infinity();
+class DepthEdges {
+ public:
+  DepthEdges(const std::vector<float>& depth, int w, int h, double jump)
+      : depth_(depth), w_(w), h_(h), jump_(jump), lo_(3 * static_cast<size_t>(w)), hi_(3 * static_cast<size_t>(w)),
+        a_(static_cast<size_t>(w)), b_(static_cast<size_t>(w)) {}
+
+  /// Row v's edges into `edge` (w of them). Rows are asked for in order, 0 first; row v reads the
+  /// depth of rows v - 1 to v + 1 as they were when first read (v + 1 is read here).
+  void row(int v, char* edge) {
+    const int up = std::max(v - 1, 0), down = std::min(v + 1, h_ - 1);
+    for (; filtered_ <= down; ++filtered_) filterRow(filtered_);
+    const float* lu = slot(lo_, up);
+    const float* la = slot(lo_, v);
+    const float* ld = slot(lo_, down);
+    const float* gu = slot(hi_, up);
+    const float* ga = slot(hi_, v);
+    const float* gd = slot(hi_, down);
+    const float* z = depth_.data() + static_cast<size_t>(v) * w_;
+    for (int u = 0; u < w_; ++u) {
+      const float least = std::min(std::min(lu[u], la[u]), ld[u]);
+      const float most = std::max(std::max(gu[u], ga[u]), gd[u]);
+      edge[u] = static_cast<char>((z[u] > 0) & (static_cast<double>(most - least) > jump_));
+    }
+  }
+
+ private:
+  static constexpr float kInf = std::numeric_limits<float>::infinity();
+  const float* slot(const std::vector<float>& rows, int v) const { return rows.data() + static_cast<size_t>(v % 3) * w_; }
+
   // Over each pixel's row of three: the least valid depth (+inf if none) and the greatest (-inf).
   // Branch-free loops the compiler vectorizes (min and max of floats are exact: the same values).
-  std::vector<float> lo(n), hi(n), a(static_cast<size_t>(w)), b(static_cast<size_t>(w));
-  for (int v = 0; v < h; ++v) {
-    const float* row = depth.data() + static_cast<size_t>(v) * w;
-    float* l = lo.data() + static_cast<size_t>(v) * w;
-    float* g = hi.data() + static_cast<size_t>(v) * w;
+  void filterRow(int v) {
+    const int w = w_;
+    const float* row = depth_.data() + static_cast<size_t>(v) * w;
+    float* l = lo_.data() + static_cast<size_t>(v % 3) * w;
+    float* g = hi_.data() + static_cast<size_t>(v % 3) * w;
+    float* a = a_.data();
+    float* b = b_.data();
     for (int u = 0; u < w; ++u) {
       const bool valid = row[u] > 0;  // not a NaN either
       a[u] = valid ? row[u] : kInf;
@@ -750,33 +780,29 @@ std::vector<char> depthEdges(const std::vector<float>& depth, int w, int h, doub
       g[u] = std::max(std::max(b[u0], b[u]), b[u1]);
     }
   }
-  std::vector<char> edge(n);
-  for (int v = 0; v < h; ++v) {
-    const size_t up = static_cast<size_t>(std::max(v - 1, 0)) * w, at = static_cast<size_t>(v) * w,
-                 down = static_cast<size_t>(std::min(v + 1, h - 1)) * w;
-    for (int u = 0; u < w; ++u) {
-      const float least = std::min(std::min(lo[up + u], lo[at + u]), lo[down + u]);
-      const float most = std::max(std::max(hi[up + u], hi[at + u]), hi[down + u]);
-      edge[at + u] = static_cast<char>((depth[at + u] > 0) & (static_cast<double>(most - least) > jump));
-    }
-  }
-  return edge;
-}
+
+  const std::vector<float>& depth_;
+  int w_, h_;
+  double jump_;
+  int filtered_ = 0;  // the rows filtered so far
+  std::vector<float> lo_, hi_, a_, b_;  // three rows' filters (row v in slot v % 3); one row's inputs
+};
 }  // namespace
 
 void applyDepthNoise(Frame& f, const DepthNoise& noise, Rng& rng) {
   const int w = f.camera.width, h = f.camera.height;
   if (f.depth.empty()) return;
-  const std::vector<char> edge = depthEdges(f.depth, w, h, noise.edge_jump);
+  DepthEdges edges(f.depth, w, h, noise.edge_jump);
+  std::vector<char> edge(static_cast<size_t>(w));
   std::vector<double> gauss_row(static_cast<size_t>(w)), drop_row(static_cast<size_t>(w));
   for (int v = 0; v < h; ++v) {
     // Every pixel draws the same numbers whatever happens to it, so the streams stay aligned: a
     // normal then a uniform, a row at a time.
     if (noise.sampler == NoiseSampler::kBoxMuller) rng.boxMullerNormalsAndUniforms(gauss_row.data(), drop_row.data(), gauss_row.size());
     else rng.normalsAndUniforms(gauss_row.data(), drop_row.data(), gauss_row.size());
-    const size_t row = static_cast<size_t>(v) * static_cast<size_t>(w);
-    float* d = f.depth.data() + row;
-    const char* e = edge.data() + row;
+    edges.row(v, edge.data());  // before the row is written over
+    float* d = f.depth.data() + static_cast<size_t>(v) * static_cast<size_t>(w);
+    const char* e = edge.data();
     for (size_t u = 0; u < static_cast<size_t>(w); ++u) {  // branch-free: the drops are a coin's toss
       const float z = d[u];
       const bool lost = (drop_row[u] < noise.edge_dropout) & (e[u] != 0);  // lost where the depth jumps
