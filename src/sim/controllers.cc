@@ -115,7 +115,10 @@ void TrajectoryMotion::stop(Hardware& hw) {
   const VecX offset = tracking ? VecX(hw.jointPositions() - traj_.q.col(std::min(k_ + 1, traj_.size() - 1))) : VecX();
   if (pending_.kind == FailureKind::kContactForce) {
     // A collision reflex: hold where the joints are now, braking at once (a controlled stop along
-    // the path would press on into what was hit).
+    // the path would press on into what was hit), at the high joint impedance, as brakes hold: at
+    // the servo's own gains a wedged object pushes the wrist centimetres aside (into a bin's wall).
+    // The next step sets the gains it needs.
+    hw.setStiff(true);
     traj_ = JointTrajectory::startingAt(hw.jointPositions(), 1, traj_.dt);
     streaming_ = false;
     k_ = 0;

@@ -171,7 +171,7 @@ class PlanExecution final : public Motion {
     if (!current_) return;
     std::unique_ptr<Motion> m = std::move(current_);
     const PlanStep& s = *step_;
-    if (s.stiff) hw.setStiff(false);
+    hw.setStiff(false);  // a push's gains, or a protective stop's brake, end with the step
     StageRecord& st = ctx_.out.stages[stage_index_];
     st.sim_seconds = m->duration();
     ctx_.executeBucket(plan_.bucket) += m->duration();

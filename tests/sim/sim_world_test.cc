@@ -151,6 +151,26 @@ JointTrajectory dive(double to = 1.3) {
   return t;
 }
 
+TEST(SimWorld, AProtectiveStopBrakesTheArmWhereItStopped) {
+  // A stop on contact force holds the arm at the servo's high joint impedance, as a robot's brakes
+  // or its reflex's stiff hold do: the hand that dove onto the table stays where it stopped.
+  auto w = world();
+  auto hw = makeMujocoHardware(*w, panda(), {});
+  VecX at_stop;  // the monitor is not called once the motion has stopped: its last call is the period before
+  const StepMonitor watch = [&] {
+    at_stop = hw->jointPositions();
+    return Failure{};
+  };
+  TrajectoryMotion m(dive(), 0.04, 40, watch, panda(), 0.3, 0.0, 20.0);
+  runToEnd(*hw, m);
+  ASSERT_EQ(m.failure().kind, FailureKind::kContactForce) << m.failure().reason;
+  ASSERT_EQ(at_stop.size(), hw->jointPositions().size());
+  // Held where it stopped (no further than the period it took to brake) and holding its ground:
+  // at the servo's own gains the arm yielded off the table (7 N at the end, 62 N braked).
+  EXPECT_LT((hw->jointPositions() - at_stop).cwiseAbs().maxCoeff(), 0.02);
+  EXPECT_GT(hw->externalForce(), 30.0);
+}
+
 TEST(SimWorld, AGuardedDescentEndsAtTouchDownOnlyWhenTheHandTouches) {
   // A guarded move (a place descent): the fingers meeting a surface is touch-down, a success, with
   // the arm held where it touched; another link hitting something is still a protective stop.
