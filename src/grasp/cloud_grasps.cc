@@ -456,6 +456,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   for (const auto& [bx, bz_lo, bz_hi] : {std::tuple{fingers_x, fingers_z_lo, fingers_z_hi}, std::tuple{body_x, body_z_lo, body_z_hi},
                                          std::tuple{o.pad_half_width, pads_z_lo, pads_z_hi}})
     reach = std::max(reach, std::hypot(bx, box_y, std::max(std::abs(bz_lo), std::abs(bz_hi))));
+  double seed_height = 0;  // the seed's, above the floor
   std::vector<int> frame_nb;
   // The pads' box over all depths: the farthest its points are from the seed.
   const double pads_reach = std::hypot(o.pad_half_width, half_span, std::max(std::abs(pads_z_lo), std::abs(pads_z_hi)));
@@ -485,6 +486,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
     for (int s = 0; s < n_seeds; ++s) {
       const int seed = seedable[rng.below(seedable.size())];
       const Vec3& ps = P[seed];
+      seed_height = height(ps);
       grid.near(ps, o.frame_radius, frame_nb);
       Mat3 M = Mat3::Zero();
       for (int j : frame_nb) M += N[j] * N[j].transpose();
@@ -559,6 +561,12 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
           Vec3 x = y.cross(z);
           Mat3 R;
           R << x, y, z;
+          // Too low at its first depth whatever the pads close on: the depth loop below would end
+          // there (on a wall, too wide or too low), none kept. Counted too low, its points unread.
+          if (handTooLowAtFirstDepth(R, seed_height, -down, o)) {
+            ++res.too_low;
+            continue;
+          }
           // The tested points in the hand's frame, by blocks: a block whose bounding box (or ball)
           // misses a box [-hx, hx] x [-hy, hy] x [zlo, zhi] of the hand's frame holds none of its
           // points and is skipped whole.
@@ -871,6 +879,22 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   res.cloud.normals = N.release();
   res.seconds.hands = since(t0);
   return res;
+}
+
+bool handTooLowAtFirstDepth(const Mat3& R, double seed_height, const Vec3& up, const CloudGraspOptions& o) {
+  const double pad = o.padding, d_first = o.min_bite - o.pad_z_max;
+  const Vec3 g = R.transpose() * up;  // a step along each of the hand's axes rises by this
+  const double gx = std::abs(g.x()), gy = std::abs(g.y()), gz = g.z();
+  // The depth loop's corners (each finger's, padded, at its inner and outer face, back and tip;
+  // the hand body's front) at the first depth, about the run's centre c with the fingers `open`
+  // from it. The fingers' lowest corner is highest with the run centred on the seed and the pads
+  // closed on it (open >= finger_margin + |c|: the run holds the seed); the body's with c as far
+  // as the stroke allows towards the side the body rises on.
+  const double fingers = -gx * (o.pad_half_width + pad) - gy * (o.finger_margin + o.finger_thickness + pad) + gz * d_first +
+                         std::min(gz * o.pad_z_min, gz * (o.pad_z_max + pad));
+  const double body = -gx * (o.hand_half_thickness + pad) + gy * (o.hand_opening / 2 - o.finger_margin) - gy * (o.hand_half_width + pad) +
+                      gz * (d_first - o.hand_back + pad);
+  return seed_height + std::min(fingers, body) < o.floor_clearance - 1e-9;  // 1e-9: the loop's own sums round otherwise
 }
 
 int objectBetweenPads(const GraspCandidate& g, const std::vector<ObjectState>& objects, const CloudGraspOptions& o) {

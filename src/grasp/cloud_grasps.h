@@ -145,6 +145,13 @@ struct CloudGraspResult {
 /// approach, which are one grasp, the one nearer it); `rng` draws the seeds.
 CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, const Vec3& preferred_x, Rng& rng);
 
+/// Whether a hand of axes `R` (x across the pads, y closing, z the approach) about a seed
+/// `seed_height` above the floor (whose up direction is `up`) has, at the first depth it is pushed
+/// to, a finger's or the hand body's corner (padded) under the floor's clearance whatever run of
+/// points its pads close on (a run about the seed no wider than the stroke): a bound cloudGrasps
+/// uses to drop such a hand unread.
+bool handTooLowAtFirstDepth(const Mat3& R, double seed_height, const Vec3& up, const CloudGraspOptions& o);
+
 /// The object of `objects` the pads of `g` close on (their perceived shapes and poses: a mesh
 /// object's pieces one by one): its index, -1 when they close on none, -2 when on two or more.
 int objectBetweenPads(const GraspCandidate& g, const std::vector<ObjectState>& objects, const CloudGraspOptions& o);

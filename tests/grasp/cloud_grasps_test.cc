@@ -552,6 +552,50 @@ TEST(CloudGrasps, AloneInTheBinNearlyEveryGeneratedObjectGetsARightCandidate) {
   EXPECT_LT(held_gpd, held) << "the default cone refuses some";
 }
 
+TEST(CloudGrasps, AHandDroppedAsTooLowUnreadIsTooLowForEveryRunItsPadsCanHold) {
+  // handTooLowAtFirstDepth against the depth loop's own corners at its first depth: for random
+  // hands and seed heights, and every run about the seed the pads can hold (lo <= 0 <= hi, no wider
+  // than the stroke less the margins), a hand it drops has a corner under the floor's clearance.
+  for (const bool clutter : {false, true}) {
+    CloudGraspOptions o = cloudGraspOptionsFor(GraspOptions{});
+    if (clutter) o.padding = 0.002, o.min_bite = 0.008, o.finger_margin = 0.006;  // the clutter experiments'
+    const Vec3 up = Vec3::UnitZ();  // the floor z = 0
+    Rng rng(7);
+    int dropped = 0;
+    for (int k = 0; k < 4000; ++k) {
+      const Mat3 R = Eigen::Quaterniond(rng.normal(), rng.normal(), rng.normal(), rng.normal()).normalized().toRotationMatrix();
+      const double seed_height = rng.uniform(0.0, 0.12);
+      if (!handTooLowAtFirstDepth(R, seed_height, up, o)) continue;
+      ++dropped;
+      const Vec3 ps = seed_height * up;
+      const double d = o.min_bite - o.pad_z_max, pad = o.padding;
+      for (int r = 0; r < 50; ++r) {
+        const double max_width = o.hand_opening - 2 * o.finger_margin;
+        const double width = rng.uniform(0.0, max_width), lo = -rng.uniform(0.0, width), hi = lo + width;
+        const double c = (lo + hi) / 2, open = width / 2 + o.finger_margin;
+        double lowest = INFINITY;  // as the depth loop reckons it
+        for (int side = -1; side <= 1; side += 2)
+          for (double sx : {-1.0, 1.0})
+            for (double zz : {o.pad_z_min, o.pad_z_max + pad})
+              for (double yy : {open, open + o.finger_thickness + pad})
+                lowest = std::min(lowest, up.dot(ps + R * Vec3(sx * (o.pad_half_width + pad), c + side * yy, d + zz)));
+        for (double sx : {-1.0, 1.0})
+          for (double sy : {-1.0, 1.0})
+            lowest = std::min(lowest, up.dot(ps + R * Vec3(sx * (o.hand_half_thickness + pad), c + sy * (o.hand_half_width + pad), d - o.hand_back + pad)));
+        ASSERT_LT(lowest, o.floor_clearance) << "hand " << k << ", run [" << lo << ", " << hi << "]";
+      }
+    }
+    EXPECT_GT(dropped, 400) << "the bound drops many of the random hands";
+    // Straight down, the fingertips reach bite + padding below the seed: a seed more than that and
+    // the clearance above the floor keeps its hand (docs/perception.md, step 3), one less drops it.
+    Mat3 down;
+    down << 1, 0, 0, 0, -1, 0, 0, 0, -1;
+    const double need = o.min_bite + o.padding + o.floor_clearance;
+    EXPECT_FALSE(handTooLowAtFirstDepth(down, need + 0.0005, up, o));
+    EXPECT_TRUE(handTooLowAtFirstDepth(down, need - 0.0005, up, o));
+  }
+}
+
 TEST(CloudGrasps, APieceBoxHoldsThePieceAndHugsItCloserThanTheObjectsAxes) {
   // A thin bar turned 30 degrees about z in its object's frame: its box along the object's axes is
   // far larger than along its own.
