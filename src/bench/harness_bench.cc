@@ -239,7 +239,7 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
         const Vec3 preferred_x = robot.fk(robot.home()).linear().col(0);
         double t_cloud_noise = 0, t_segment = 0, t_cloud = 0, t_hands = 0;
         size_t cloud_points = 0, cloud_candidates = 0, cloud_segments = 0;
-        int cloud_seeds = 0, cloud_hands = 0;
+        int cloud_seeds = 0, cloud_repeated = 0, cloud_hands = 0;
         // Objects with no model (camera mode): a trial's view is segmented first, and the segments'
         // columns (and the patches no segment explains) are the boxes the hands must keep out of.
         const bool segmented = cell.perception.unknown_objects;
@@ -301,7 +301,7 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
           Rng grasp_rng = Rng::stream(e.seed, static_cast<uint64_t>(k), Purpose::kGrasp);
           const CloudGraspResult cg = cloudGrasps(g, view_cgo, preferred_x, grasp_rng);
           t_cloud += cg.seconds.cloud, t_hands += cg.seconds.hands;
-          cloud_points = cg.cloud.points.size(), cloud_candidates = cg.candidates.size(), cloud_seeds = cg.seeds, cloud_hands = cg.hands;
+          cloud_points = cg.cloud.points.size(), cloud_candidates = cg.candidates.size(), cloud_seeds = cg.seeds, cloud_repeated = cg.seeds_repeated, cloud_hands = cg.hands;
         }
         const auto& t = sum.seconds;
         const double detect = t.cloud + t.floor + t.faces + t.fit + t.unexplained;
@@ -317,7 +317,7 @@ std::string benchmarkHarness(const Experiment& experiment, const std::string& co
         if (segmented) o << " + segmentation " << 1e3 * t_segment / n;
         o << " + cloud " << 1e3 * t_cloud / n << " + hands (with the normals they read) " << 1e3 * t_hands / n << " ms (";
         if (segmented) o << cloud_segments << " segments, ";
-        o << cloud_points << " points, " << cloud_seeds << " seeds, " << cloud_hands << " hands, " << cloud_candidates << " candidates)\n";
+        o << cloud_points << " points, " << cloud_seeds << " seeds (" << cloud_repeated << " drawn again), " << cloud_hands << " hands, " << cloud_candidates << " candidates)\n";
       }
     }
   }

@@ -436,12 +436,16 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   // In a hand's frame about its seed, the points a test of it reads over all its depths lie in two
   // boxes (conservative bounds, 1e-9 wider for the rounding of the tests' sums): the fingers' slab
   // (the fingers' padded sweep along the approach, the points between and beside the pads) and
-  // the hand body's (its padded sweep behind the fingers). Along the closing axis both reach the
-  // farthest point between the pads plus the hand's padded half width, or the finger's padded
-  // reach and the clearance's 2 cm.
+  // the hand body's (its padded sweep behind the fingers). Along the closing axis they reach from
+  // the farthest the hand's centre can be from the seed (the run between the pads holds the seed
+  // and is no wider than the stroke less the fingers' margins: its centre within half that) the
+  // hand's padded half width (the body's), or the fingers' padded reach and the clearance's 2 cm
+  // (the fingers' slab: a point farther changes no check).
   const double d_first = o.min_bite - o.pad_z_max, d_last = -o.pad_z_min + 1e-9;
   const double half_span = o.hand_opening / 2 + o.finger_thickness;
-  const double box_y = half_span + std::max(o.hand_half_width + o.padding, half_span + std::max(o.padding, 0.02)) + 1e-9;
+  const double centre_max = std::max(0.0, o.hand_opening / 2 - o.finger_margin);
+  const double fingers_y = centre_max + half_span + std::max(o.padding, 0.02) + 1e-9;
+  const double body_y = centre_max + o.hand_half_width + o.padding + 1e-9;
   const double fingers_x = o.pad_half_width + o.padding + 1e-9;
   const double fingers_z_lo = d_first + std::min(o.pad_z_min, -o.hand_back - o.approach_clear) - 1e-9;
   const double fingers_z_hi = d_last + o.pad_z_max + o.padding + 1e-9;
@@ -455,8 +459,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   double reach = 0;
   for (const auto& [bx, bz_lo, bz_hi] : {std::tuple{fingers_x, fingers_z_lo, fingers_z_hi}, std::tuple{body_x, body_z_lo, body_z_hi},
                                          std::tuple{o.pad_half_width, pads_z_lo, pads_z_hi}})
-    reach = std::max(reach, std::hypot(bx, box_y, std::max(std::abs(bz_lo), std::abs(bz_hi))));
-  double seed_height = 0;  // the seed's, above the floor
+    reach = std::max(reach, std::hypot(bx, std::max(fingers_y, body_y), std::max(std::abs(bz_lo), std::abs(bz_hi))));
   std::vector<int> frame_nb;
   // The pads' box over all depths: the farthest its points are from the seed.
   const double pads_reach = std::hypot(o.pad_half_width, half_span, std::max(std::abs(pads_z_lo), std::abs(pads_z_hi)));
@@ -480,13 +483,27 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   // The hands of `n_seeds` seeds, each kept one added to `found`; the second look of a view that
   // gave none or only weak ones (snap_down, floor_contacts, weak_score): `second_look`.
   std::vector<GraspCandidate> found;  // every hand kept, of both looks
+  // A seed drawn again in a look (the draws are with replacement) gives the same hands as the
+  // first time: those it kept are in `found` already (the same hand twice is one candidate), and
+  // its tallies (the hands evaluated, why each was dropped) are counted again, not evaluated again.
+  const std::array<int*, 11> tallies{&res.hands,   &res.tilted, &res.on_cell,       &res.fingers_blocked, &res.hand_blocked, &res.too_wide,
+                                     &res.too_low, &res.sparse, &res.not_antipodal, &res.unseen,          &res.neighbour};
+  std::unordered_map<int, std::array<int, 11>> drawn;  // a seed drawn in this look: its own tallies
   auto search = [&](bool second_look) {
     const int n_seeds = std::min<int>(o.seeds, static_cast<int>(seedable.size()));
     res.seeds += n_seeds;
+    drawn.clear();
     for (int s = 0; s < n_seeds; ++s) {
       const int seed = seedable[rng.below(seedable.size())];
+      if (const auto again = drawn.find(seed); again != drawn.end()) {
+        for (size_t k = 0; k < tallies.size(); ++k) *tallies[k] += again->second[k];
+        ++res.seeds_repeated;
+        continue;
+      }
+      std::array<int, 11>& own = drawn[seed];
+      for (size_t k = 0; k < tallies.size(); ++k) own[k] = -*tallies[k];
       const Vec3& ps = P[seed];
-      seed_height = height(ps);
+      const double seed_height = height(ps);  // above the floor
       grid.near(ps, o.frame_radius, frame_nb);
       Mat3 M = Mat3::Zero();
       for (int j : frame_nb) M += N[j] * N[j].transpose();
@@ -612,13 +629,14 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
             if (next_block == 0) blocks.project(R);  // fewer than half the hands gather any
             while (next_block < blocks.size()) {
               const size_t i = next_block++;
-              if (!blocks.meets(i, fingers_x, box_y, fingers_z_lo, fingers_z_hi) && !blocks.meets(i, body_x, box_y, body_z_lo, body_z_hi)) continue;
+              if (!blocks.meets(i, fingers_x, fingers_y, fingers_z_lo, fingers_z_hi) && !blocks.meets(i, body_x, body_y, body_z_lo, body_z_hi)) continue;
               inHand(blocks[i], tx, ty, tz, std::max(fingers_x, body_x), [&](size_t k, double px, double py, double pz) {
                 const double across = std::abs(px);
-                const bool fingers = (across <= fingers_x) & (pz >= fingers_z_lo) & (pz <= fingers_z_hi);
-                const bool body = (across <= body_x) & (pz >= body_z_lo) & (pz <= body_z_hi);
+                const double along = std::abs(py);
+                const bool fingers = (across <= fingers_x) & (along <= fingers_y) & (pz >= fingers_z_lo) & (pz <= fingers_z_hi);
+                const bool body = (across <= body_x) & (along <= body_y) & (pz >= body_z_lo) & (pz <= body_z_hi);
                 obstacles[n_obstacles] = {Vec3(px, py, pz), t_cell[k]};
-                n_obstacles += (fingers | body) & (std::abs(py) <= box_y) & !t_on_plane[k];
+                n_obstacles += (fingers | body) & !t_on_plane[k];
               });
               return true;
             }
@@ -845,6 +863,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
           found.push_back(best);
         }
       }
+      for (size_t k = 0; k < tallies.size(); ++k) own[k] += *tallies[k];
     }
   };
   // The hands kept so far, ranked into res.candidates: best first; a candidate near a better one

@@ -124,7 +124,11 @@ struct CloudGraspResult {
   /// only when read (most of the floor's never are), the others are zero. cloudFromDepth gives all.
   PointCloud cloud;
   std::vector<GraspCandidate> candidates;  ///< best first; type kCloud
-  int seeds = 0, hands = 0;                ///< seeds drawn, hands evaluated
+  int seeds = 0, hands = 0;                ///< seeds drawn, hands evaluated (a seed drawn again counts its hands again)
+  /// Of the seeds drawn, those drawn again in the same look (the draws are with replacement): the
+  /// seed's hands are not evaluated again (the same hand twice is one candidate); their tallies
+  /// below are counted again.
+  int seeds_repeated = 0;
   /// Why hands were dropped: tilted beyond max_tilt; the pads closing on the floor or a wall, the
   /// fingers' or the hand's approach through points, too wide, the fingers or the hand too near the
   /// floor (before any depth was right); too few points between the pads, not antipodal (at every

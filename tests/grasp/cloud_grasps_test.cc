@@ -180,9 +180,18 @@ TEST(CloudGrasps, TopCandidatesInPilesHoldOneObjectInForceClosureWithFingersClea
   EXPECT_GE(objects_held * 10, objects_total * 3) << "a right candidate holds three objects in ten or more";
 }
 
-TEST(CloudGrasps, TheSameViewAndSeedGiveTheSameCandidates) {
+// A pile the first test sees too (5 to 10 generated objects dropped into the bin, seed 11's
+// second), seen once by the overhead camera at 640 x 480, noise-free.
+struct PileView {
+  bool ok = false;
+  Pose T_bin;
+  Vec3 half;
+  Frame frame;
+};
+PileView pileView() {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
-  const auto [T_bin, half] = w->site("bin_region");
+  PileView out;
+  std::tie(out.T_bin, out.half) = w->site("bin_region");
   SpawnOptions so;
   so.generated.grades = shapeGrades();
   so.count_min = 5, so.count_max = 10;
@@ -190,11 +199,18 @@ TEST(CloudGrasps, TheSameViewAndSeedGiveTheSameCandidates) {
   so.drop = true;
   so.wall_margin = 0.06;
   so.min_spacing = 0.05;
-  Rng rng = Rng::stream(11, 1, Purpose::kScene);  // a pile the first test sees too
-  ASSERT_TRUE(spawnObjects(*w, panda(), T_bin, half, rng, so).ok);
+  Rng rng = Rng::stream(11, 1, Purpose::kScene);
+  out.ok = spawnObjects(*w, panda(), out.T_bin, out.half, rng, so).ok;
   w->updateKinematics();
-  const Frame frame = renderer().render(*w, renderer().camera(*w, "overhead_camera", 640, 480, "(test)"), kDepth);
-  CloudGraspOptions o = trialOptions(T_bin, half);
+  out.frame = renderer().render(*w, renderer().camera(*w, "overhead_camera", 640, 480, "(test)"), kDepth);
+  return out;
+}
+
+TEST(CloudGrasps, TheSameViewAndSeedGiveTheSameCandidates) {
+  const PileView pile = pileView();
+  ASSERT_TRUE(pile.ok);
+  const Frame& frame = pile.frame;
+  CloudGraspOptions o = trialOptions(pile.T_bin, pile.half);
   o.seeds = testing_sanitized::sanitizedOr(100, o.seeds);  // a quarter under the sanitizers
   Rng a = Rng::stream(3, 0, Purpose::kGrasp), b = Rng::stream(3, 0, Purpose::kGrasp), c = Rng::stream(3, 1, Purpose::kGrasp);
   const CloudGraspResult ra = cloudGrasps(frame, o, Vec3::UnitX(), a), rb = cloudGrasps(frame, o, Vec3::UnitX(), b),
@@ -223,6 +239,44 @@ TEST(CloudGrasps, TheSameViewAndSeedGiveTheSameCandidates) {
   }
   EXPECT_GT(fitted, 0u);
   EXPECT_LT(fitted, all.normals.size() / 2) << "most points' normals are never read";
+}
+
+// A seed drawn again in a look (the draws are with replacement) is not evaluated again. The view's
+// tallies are those of its draws one by one (each draw's alone: one seed, from the stream advanced
+// past the draws before it) summed, and each of its candidates is one of a draw's own.
+TEST(CloudGrasps, ASeedDrawnAgainCountsAsItsFirstDraw) {
+  const PileView pile = pileView();
+  ASSERT_TRUE(pile.ok);
+  const Frame& frame = pile.frame;
+  CloudGraspOptions o = trialOptions(pile.T_bin, pile.half);
+  o.snap_down = 0;  // one look: a single seed's view would often look again
+  o.seeds = testing_sanitized::sanitizedOr(60, 200);
+  const Rng stream = Rng::stream(5, 0, Purpose::kGrasp);
+  Rng whole_rng = stream;
+  const CloudGraspResult whole = cloudGrasps(frame, o, Vec3::UnitX(), whole_rng);
+  ASSERT_EQ(whole.seeds, o.seeds) << "more points to draw than draws";
+  EXPECT_GT(whole.seeds_repeated, 0) << "this view draws some point twice";
+  ASSERT_FALSE(whole.candidates.empty());
+  auto tallies = [](const CloudGraspResult& r) {
+    return std::vector<int>{r.hands,   r.tilted, r.on_cell,       r.fingers_blocked, r.hand_blocked, r.too_wide,
+                            r.too_low, r.sparse, r.not_antipodal, r.unseen,          r.neighbour};
+  };
+  std::vector<int> sum(tallies(whole).size(), 0);
+  std::vector<GraspCandidate> own;  // every draw's candidates
+  CloudGraspOptions one = o;
+  one.seeds = 1;
+  for (int k = 0; k < o.seeds; ++k) {
+    Rng r = stream;
+    for (int skip = 0; skip < k; ++skip) r.next();  // a draw takes one number (rejected: a chance in 2^64 / points)
+    const CloudGraspResult alone = cloudGrasps(frame, one, Vec3::UnitX(), r);
+    const std::vector<int> t = tallies(alone);
+    for (size_t i = 0; i < t.size(); ++i) sum[i] += t[i];
+    own.insert(own.end(), alone.candidates.begin(), alone.candidates.end());
+  }
+  EXPECT_EQ(tallies(whole), sum);
+  for (const GraspCandidate& g : whole.candidates)
+    EXPECT_TRUE(std::any_of(own.begin(), own.end(), [&](const GraspCandidate& h) { return h.T_world_tcp.matrix() == g.T_world_tcp.matrix() && h.score == g.score; }))
+        << "a candidate of the view is a draw's own, to the bit";
 }
 
 // A bar lying 16 mm tall alone in the bin, in the stereo noise. A top-down hand needs the bar's
