@@ -59,9 +59,9 @@ SegmentationOptions segmentationOptions(const PerceptionOptions& o) {
   so.max_object_width = o.object_width;
   // Known objects: the models pose LCCP's own segments (a pose takes the pixels it explains, and
   // what it leaves is posed again), as their measurements were made; the joins were measured on
-  // generated objects only, and so were the second cut of a segment larger than any object and
-  // the cut at a waist.
-  if (o.known_models) so.sanity_join = 0, so.recut_tolerance = 0, so.waist_depth = 0;
+  // generated objects only, and so were the second cut of a segment larger than any object, the
+  // cut of a segment whose pixels fall apart, and the cut at a waist.
+  if (o.known_models) so.sanity_join = 0, so.recut_tolerance = 0, so.split_unconnected = false, so.waist_depth = 0;
   return so;
 }
 

@@ -248,6 +248,69 @@ void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<i
   }
 }
 
+// A segment whose own pixels fall apart in the image (4-connected) is cut into its pieces. The
+// camera measured no depth between them: where two objects touch, the sensor loses the pixels
+// along the edge between them, and the 4 mm voxels of the supervoxels reach across such a line.
+// One object's pieces parted so (a ring's arcs, a bent bar's faces seen edge on) are put back by
+// the join by size, which runs after. Pieces of at least min_pixels are segments, in the order of
+// their first pixel; smaller ones stay with the largest (then the first). Each piece has its
+// segment's neighbours (through the supervoxels); pieces of one segment are neighbours where their
+// masks touch, as any two segments.
+void splitUnconnected(int width, std::vector<Segment>& segments, std::vector<std::set<int>>& near, int min_pixels,
+                      const Pose& T_region_world) {
+  std::vector<Segment> pieces;
+  std::vector<std::vector<int>> pieces_of(segments.size());
+  for (size_t s = 0; s < segments.size(); ++s) {
+    const Segment& seg = segments[s];
+    const std::vector<int>& px = seg.pixels;  // ascending
+    const size_t m = px.size();
+    // Union-find over the segment's pixels: each joined to its left and upper neighbours in it.
+    std::vector<int> parent(m);
+    for (size_t k = 0; k < m; ++k) parent[k] = static_cast<int>(k);
+    auto find = [&](int x) {
+      while (parent[static_cast<size_t>(x)] != x) x = parent[static_cast<size_t>(x)] = parent[static_cast<size_t>(parent[static_cast<size_t>(x)])];
+      return x;
+    };
+    auto unite = [&](int a, int b) {
+      a = find(a), b = find(b);
+      if (a != b) parent[static_cast<size_t>(std::max(a, b))] = std::min(a, b);
+    };
+    for (size_t k = 0; k < m; ++k) {
+      const int p = px[k];
+      if (k > 0 && px[k - 1] == p - 1 && p % width != 0) unite(static_cast<int>(k - 1), static_cast<int>(k));
+      const auto up = std::lower_bound(px.begin(), px.begin() + static_cast<std::ptrdiff_t>(k), p - width);
+      if (up != px.begin() + static_cast<std::ptrdiff_t>(k) && *up == p - width) unite(static_cast<int>(up - px.begin()), static_cast<int>(k));
+    }
+    // The pieces by their first pixel (a root is its piece's first pixel), their sizes.
+    std::map<int, int> size;  // root -> pixels
+    for (size_t k = 0; k < m; ++k) ++size[find(static_cast<int>(k))];
+    int largest = size.empty() ? 0 : size.begin()->first;
+    for (const auto& [r, n] : size)
+      if (n > size[largest]) largest = r;
+    std::map<int, int> piece_of;  // root -> index in pieces
+    for (const auto& [r, n] : size) {
+      if (r != largest && n < min_pixels) continue;
+      piece_of[r] = static_cast<int>(pieces.size());
+      pieces_of[s].push_back(static_cast<int>(pieces.size()));
+      pieces.emplace_back();
+    }
+    for (size_t k = 0; k < m; ++k) {
+      const auto it = piece_of.find(find(static_cast<int>(k)));
+      Segment& to = pieces[static_cast<size_t>(it == piece_of.end() ? piece_of.at(largest) : it->second)];
+      to.pixels.push_back(px[k]);
+      to.points.push_back(seg.points[k]);
+      to.top = std::max(to.top, (T_region_world * seg.points[k]).z());
+    }
+  }
+  std::vector<std::set<int>> near_pieces(pieces.size());
+  for (size_t s = 0; s < segments.size(); ++s)
+    for (int t : near[s])
+      for (int a : pieces_of[s])
+        for (int b : pieces_of[static_cast<size_t>(t)]) near_pieces[static_cast<size_t>(a)].insert(b);
+  segments = std::move(pieces);
+  near = std::move(near_pieces);
+}
+
 // A segment that holds two objects side by side (LCCP took the valley between them for convex, or
 // the join by size put them together) often shows it in its outline: seen from above, each solid
 // is convex, and where they touch the outline narrows to a waist between two concavities. Each
@@ -531,6 +594,8 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
     if (seg_of_point[k] < 0) continue;
     addPoint(segments[static_cast<size_t>(root(seg_of_point[k]))], k);
   }
+  if (o.split_unconnected && o.max_object_length > 0 && o.max_object_width > 0)
+    splitUnconnected(cam.width, segments, near, o.min_pixels, T_region_world);
   if (o.max_object_length > 0 && o.max_object_width > 0) {
     // Neighbours in the image too: segments whose instance masks touch (one object's pieces are
     // often parted by pixels the camera measured no depth at, and share no supervoxel).

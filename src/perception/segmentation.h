@@ -7,7 +7,8 @@
 //   seeds on a grid, by distance and normals) -> neighbouring supervoxels joined where the surface
 //   between them is convex or smooth -> LCCP's segments joined where the connections between them
 //   are mostly convex ones only its sanity criterion refused -> a segment larger than any object
-//   cut again at a tighter concavity -> neighbouring segments joined while
+//   cut again at a tighter concavity -> a segment whose pixels fall apart in the image (the camera
+//   measured no depth between them) cut into its pieces -> neighbouring segments joined while
 //   their points together fit what an object can measure seen from above -> a segment whose
 //   outline narrows to a waist between two deep concavities cut there -> segments, each the
 //   pixels of its points.
@@ -59,6 +60,11 @@ struct SegmentationOptions {
   /// pieces of at most min_supervoxels join their largest neighbour within it. After the join of
   /// faces seen edge on, before LCCP's rule for small segments and the join by size.
   double recut_tolerance = 12.0;
+  /// A segment whose own pixels fall apart in the image (4-connected: the camera measured no depth
+  /// between them, as along the edge where two objects touch) is cut into its pieces of at least
+  /// min_pixels, the smaller staying with the largest; before the join by size, which puts one
+  /// object's pieces back. Only with the objects' size limits (max_object_length, max_object_width).
+  bool split_unconnected = true;
   /// [m] A segment whose outline seen in the image (its instance mask) has two concavities at
   /// least this deep (OpenCV's convexity defects, converted to pixels at the segment's depth) is
   /// cut along the line between their deepest points, when that line is short: under

@@ -62,7 +62,7 @@ struct Score {
 void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height, Score& score, bool verbose, bool labels,
                std::optional<SegmentationMethod> method, std::optional<double> sanity_join = {},
                std::optional<double> object_length = {}, std::optional<double> recut = {}, std::optional<double> object_width = {},
-               std::optional<double> waist = {}, NoiseSampler sampler = NoiseSampler::kZiggurat) {
+               std::optional<double> waist = {}, NoiseSampler sampler = NoiseSampler::kZiggurat, std::optional<bool> split = {}) {
   const auto [T_bin, half] = w.site("bin_region");
   SpawnOptions so;
   so.generated.grades = shapeGrades();
@@ -115,10 +115,12 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
   if (const char* e = std::getenv("MM_RECUT")) o.recut_tolerance = std::atof(e);
   if (const char* e = std::getenv("MM_WAIST")) o.waist_depth = std::atof(e);  // 0: no cut at a waist
   if (const char* e = std::getenv("MM_WAIST_RATIO")) o.waist_ratio = std::atof(e);
+  if (const char* e = std::getenv("MM_SPLIT")) o.split_unconnected = std::atoi(e) != 0;  // 0: no cut of a segment whose pixels fall apart
   if (object_length) o.max_object_length = *object_length;
   if (object_width) o.max_object_width = *object_width;
   if (recut) o.recut_tolerance = *recut;
   if (waist) o.waist_depth = *waist;
+  if (split) o.split_unconnected = *split;
   if (method) o.method = *method;
   if (const char* e = std::getenv("MM_SANITY_JOIN")) o.sanity_join = std::atof(e);  // 0: LCCP's segments as they are
   if (sanity_join) o.sanity_join = *sanity_join;
@@ -387,12 +389,13 @@ TEST(PileSegmentation, AHollowObjectsHalvesAreJoinedThoughWiderThanThePieceTheFi
 // Seed 1's pile 23: two objects side by side (a blend and a convex solid) that LCCP takes for one
 // segment, the valley between their tops concave by less than its 25 degrees. Together they are
 // larger than any generated object can be, so the segment is cut again at 12 degrees: two
-// segments, each object found. (No cut at a waist, which would part them too.)
+// segments, each object found. (No cut at a waist, nor where a segment's pixels fall apart, which
+// would part them too.)
 TEST(PileSegmentation, ASegmentLargerThanAnyObjectIsCutAgainAtATighterConcavity) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score whole, cut;
-  scorePile(*w, 1, 23, 640, 480, whole, false, false, {}, {}, {}, 0.0, {}, 0.0, kAsFound);
-  scorePile(*w, 1, 23, 640, 480, cut, false, false, {}, {}, {}, SegmentationOptions{}.recut_tolerance, {}, 0.0, kAsFound);
+  scorePile(*w, 1, 23, 640, 480, whole, false, false, {}, {}, {}, 0.0, {}, 0.0, kAsFound, false);
+  scorePile(*w, 1, 23, 640, 480, cut, false, false, {}, {}, {}, SegmentationOptions{}.recut_tolerance, {}, 0.0, kAsFound, false);
   int found_whole = 0, found_cut = 0;
   for (const auto& [grade, g] : whole.grades) found_whole += g.found;
   for (const auto& [grade, g] : cut.grades) found_cut += g.found;
@@ -413,6 +416,23 @@ TEST(PileSegmentation, ASegmentOfTwoSolidsSideBySideIsCutAtTheWaistBetweenThem) 
   EXPECT_EQ(cut.grades["convex"].found, whole.grades["convex"].found + 2);
   EXPECT_EQ(cut.segments, whole.segments + 1);
   EXPECT_EQ(cut.false_segments, whole.false_segments - 1);
+}
+
+// Seed 1's pile 37: a blend and a convex solid side by side, parted in the image by a line of
+// pixels the camera measured no depth at (where they touch). The supervoxels' voxels reach across
+// it, and LCCP and the joins cut the pair the other way: two segments, each a part of both (of
+// 185 and 60 pixels; neither object found, both segments false). Each one's pixels fall apart
+// along that line; cut into their pieces, which the join by size puts together again object by
+// object, the two segments are the two objects, both found.
+TEST(PileSegmentation, ASegmentWhosePixelsFallApartInTheImageIsCutIntoItsPieces) {
+  auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
+  Score whole, cut;
+  scorePile(*w, 1, 37, 640, 480, whole, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, false);
+  scorePile(*w, 1, 37, 640, 480, cut, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, true);
+  EXPECT_EQ(cut.grades["convex"].found, whole.grades["convex"].found + 1);
+  EXPECT_EQ(cut.grades["blend"].found, whole.grades["blend"].found + 1);
+  EXPECT_EQ(cut.false_segments, whole.false_segments - 2);
+  EXPECT_EQ(cut.segments, whole.segments);
 }
 
 // The oracle's segments (perception.segmentation: labels), from the same noisy depth: every object
