@@ -196,6 +196,25 @@ void recutOversized(const std::map<std::uint32_t, pcl::Supervoxel<pcl::PointXYZ>
   }
 }
 
+// Points seen from above fit max_length by max_width in some turn: the longer side of the
+// smallest such box over 1-degree turns (INFINITY: none fits).
+double fitInSomeTurn(const std::vector<Vec2>& a, const std::vector<Vec2>& b, double max_length, double max_width) {
+  double best = INFINITY;
+  for (int degrees = 0; degrees < 90; ++degrees) {
+    const double t = degrees * M_PI / 180;
+    const Vec2 x(std::cos(t), std::sin(t)), y(-x.y(), x.x());
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (const auto* v : {&a, &b})
+      for (const Vec2& p : *v) {
+        const double s0 = p.dot(x), s1 = p.dot(y);
+        lo[0] = std::min(lo[0], s0), hi[0] = std::max(hi[0], s0), lo[1] = std::min(lo[1], s1), hi[1] = std::max(hi[1], s1);
+      }
+    const double longer = std::max(hi[0] - lo[0], hi[1] - lo[1]), shorter = std::min(hi[0] - lo[0], hi[1] - lo[1]);
+    if (longer <= max_length && shorter <= max_width) best = std::min(best, longer);
+  }
+  return best;
+}
+
 // Neighbouring segments (`near`, by index) whose points together still fit what an object can
 // measure seen from above are joined: of the pairs that fit, the one whose union is shortest first
 // (then the first pair), until none fits. LCCP cuts an object where its surface turns concave (a
@@ -203,24 +222,43 @@ void recutOversized(const std::map<std::uint32_t, pcl::Supervoxel<pcl::PointXYZ>
 // object's size, where two touching objects together are mostly larger (two small ones that
 // together fit are joined all the same). The extents are the points' spread along their
 // principal axis and across it.
+// With `crumb_pixels` (SegmentationOptions::crumb_pixels), only pairs of which the smaller is a
+// crumb: fewer pixels than that, its own principal extents at least `crumb_aspect` to one; and
+// the union fits in some turn (fitInSomeTurn), not along its principal axes.
 void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<int>>& near, const Pose& T_region_world,
-                          double max_length, double max_width) {
+                          double max_length, double max_width, int crumb_pixels = 0, double crumb_aspect = 0) {
   const size_t n = segments.size();
   std::vector<std::vector<Vec2>> xy(n);
   for (size_t i = 0; i < n; ++i)
     for (const Vec3& p : segments[i].points) xy[i].push_back((T_region_world * p).head<2>());
-  std::map<std::pair<int, int>, std::pair<double, double>> extents;  // a pair's union's, until either changes
+  // A crumb: small, and elongated seen from above.
+  auto crumb = [&](size_t i) {
+    if (static_cast<int>(segments[i].pixels.size()) >= crumb_pixels) return false;
+    const auto [length, width] = extentsFromAbove(xy[i], {});
+    return length >= crumb_aspect * width;
+  };
+  // A pair's union's length where it fits (INFINITY where not), until either changes.
+  std::map<std::pair<int, int>, double> fit;
   for (;;) {
     double best = INFINITY;
     int bi = -1, bj = -1;
     for (size_t i = 0; i < n; ++i) {
       if (xy[i].empty()) continue;
       for (int j : near[i]) {
-        if (j <= static_cast<int>(i) || xy[static_cast<size_t>(j)].empty()) continue;
-        auto it = extents.find({static_cast<int>(i), j});
-        if (it == extents.end()) it = extents.emplace(std::pair{static_cast<int>(i), j}, extentsFromAbove(xy[i], xy[static_cast<size_t>(j)])).first;
-        const auto [length, width] = it->second;
-        if (length <= max_length && width <= max_width && length < best) best = length, bi = static_cast<int>(i), bj = j;
+        const size_t uj = static_cast<size_t>(j);
+        if (j <= static_cast<int>(i) || xy[uj].empty()) continue;
+        auto it = fit.find({static_cast<int>(i), j});
+        if (it == fit.end()) {
+          double length = INFINITY;
+          if (crumb_pixels <= 0) {
+            const auto [l, w] = extentsFromAbove(xy[i], xy[uj]);
+            if (l <= max_length && w <= max_width) length = l;
+          } else if (crumb(segments[i].pixels.size() <= segments[uj].pixels.size() ? i : uj)) {
+            length = fitInSomeTurn(xy[i], xy[uj], max_length, max_width);
+          }
+          it = fit.emplace(std::pair{static_cast<int>(i), j}, length).first;
+        }
+        if (it->second < best) best = it->second, bi = static_cast<int>(i), bj = j;
       }
     }
     if (bi < 0) return;
@@ -237,8 +275,8 @@ void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<i
     segments[b] = Segment{};
     xy[a].insert(xy[a].end(), xy[b].begin(), xy[b].end());
     xy[b].clear();
-    for (auto it = extents.begin(); it != extents.end();)
-      it = it->first.first == bi || it->first.second == bi || it->first.first == bj || it->first.second == bj ? extents.erase(it) : std::next(it);
+    for (auto it = fit.begin(); it != fit.end();)
+      it = it->first.first == bi || it->first.second == bi || it->first.first == bj || it->first.second == bj ? fit.erase(it) : std::next(it);
     for (int k : near[b]) {
       near[static_cast<size_t>(k)].erase(bj);
       if (k != bi) near[static_cast<size_t>(k)].insert(bi), near[a].insert(k);
@@ -619,6 +657,8 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
         }
       }
     joinWithinObjectSize(segments, near, T_region_world, o.max_object_length, o.max_object_width);
+    if (o.crumb_pixels > 0)
+      joinWithinObjectSize(segments, near, T_region_world, o.max_object_length, o.max_object_width, o.crumb_pixels, o.crumb_aspect);
     if (o.waist_depth > 0) splitAtWaists(frame, segments, o, T_region_world);
   }
   keepSegments(segments, o, out);

@@ -9,9 +9,10 @@
 //   are mostly convex ones only its sanity criterion refused -> a segment larger than any object
 //   cut again at a tighter concavity -> a segment whose pixels fall apart in the image (the camera
 //   measured no depth between them) cut into its pieces -> neighbouring segments joined while
-//   their points together fit what an object can measure seen from above -> a segment whose
-//   outline narrows to a waist between two deep concavities cut there -> segments, each the
-//   pixels of its points.
+//   their points together fit what an object can measure seen from above -> a small elongated
+//   segment left (a piece of an object) joined to a neighbour it fits with in some turn -> a
+//   segment whose outline narrows to a waist between two deep concavities cut there -> segments,
+//   each the pixels of its points.
 // Reads only the frame's depth and its camera (the extrinsics as calibrated) and the bin's known
 // geometry. Every PCL call runs on this thread; the same image gives the same segments.
 // SegmentationOptions::method picks instead region growing or clustering with normals, the
@@ -65,6 +66,15 @@ struct SegmentationOptions {
   /// min_pixels, the smaller staying with the largest; before the join by size, which puts one
   /// object's pieces back. Only with the objects' size limits (max_object_length, max_object_width).
   bool split_unconnected = true;
+  /// A segment of fewer pixels than this that the join by size left, elongated seen from above
+  /// (its principal extents at least `crumb_aspect` to one: an arc of a ring, a piece of a bar, not
+  /// a small solid's compact top), is a piece of an object: it joins a neighbour when their points
+  /// together fit max_object_length by max_object_width in some turn (the smallest such box over
+  /// 1-degree turns: the principal extents overstate an L's or an arc's), the pair of the
+  /// shortest union first. After the join by size, before the cut at a waist; only with the
+  /// objects' size limits; 0: never.
+  int crumb_pixels = 100;
+  double crumb_aspect = 1.6;
   /// [m] A segment whose outline seen in the image (its instance mask) has two concavities at
   /// least this deep (OpenCV's convexity defects, converted to pixels at the segment's depth) is
   /// cut along the line between their deepest points, when that line is short: under

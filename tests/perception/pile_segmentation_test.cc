@@ -62,7 +62,8 @@ struct Score {
 void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height, Score& score, bool verbose, bool labels,
                std::optional<SegmentationMethod> method, std::optional<double> sanity_join = {},
                std::optional<double> object_length = {}, std::optional<double> recut = {}, std::optional<double> object_width = {},
-               std::optional<double> waist = {}, NoiseSampler sampler = NoiseSampler::kZiggurat, std::optional<bool> split = {}) {
+               std::optional<double> waist = {}, NoiseSampler sampler = NoiseSampler::kZiggurat, std::optional<bool> split = {},
+               std::optional<int> crumb = {}) {
   const auto [T_bin, half] = w.site("bin_region");
   SpawnOptions so;
   so.generated.grades = shapeGrades();
@@ -116,11 +117,13 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
   if (const char* e = std::getenv("MM_WAIST")) o.waist_depth = std::atof(e);  // 0: no cut at a waist
   if (const char* e = std::getenv("MM_WAIST_RATIO")) o.waist_ratio = std::atof(e);
   if (const char* e = std::getenv("MM_SPLIT")) o.split_unconnected = std::atoi(e) != 0;  // 0: no cut of a segment whose pixels fall apart
+  if (const char* e = std::getenv("MM_CRUMB")) o.crumb_pixels = std::atoi(e);  // 0: no join of a small elongated segment left
   if (object_length) o.max_object_length = *object_length;
   if (object_width) o.max_object_width = *object_width;
   if (recut) o.recut_tolerance = *recut;
   if (waist) o.waist_depth = *waist;
   if (split) o.split_unconnected = *split;
+  if (crumb) o.crumb_pixels = *crumb;
   if (method) o.method = *method;
   if (const char* e = std::getenv("MM_SANITY_JOIN")) o.sanity_join = std::atof(e);  // 0: LCCP's segments as they are
   if (sanity_join) o.sanity_join = *sanity_join;
@@ -423,16 +426,32 @@ TEST(PileSegmentation, ASegmentOfTwoSolidsSideBySideIsCutAtTheWaistBetweenThem) 
 // it, and LCCP and the joins cut the pair the other way: two segments, each a part of both (of
 // 185 and 60 pixels; neither object found, both segments false). Each one's pixels fall apart
 // along that line; cut into their pieces, which the join by size puts together again object by
-// object, the two segments are the two objects, both found.
+// object, the two segments are the two objects, both found. (No join of small elongated pieces
+// left, which would put the smaller segment into the larger.)
 TEST(PileSegmentation, ASegmentWhosePixelsFallApartInTheImageIsCutIntoItsPieces) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score whole, cut;
-  scorePile(*w, 1, 37, 640, 480, whole, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, false);
-  scorePile(*w, 1, 37, 640, 480, cut, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, true);
+  scorePile(*w, 1, 37, 640, 480, whole, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, false, 0);
+  scorePile(*w, 1, 37, 640, 480, cut, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, true, 0);
   EXPECT_EQ(cut.grades["convex"].found, whole.grades["convex"].found + 1);
   EXPECT_EQ(cut.grades["blend"].found, whole.grades["blend"].found + 1);
   EXPECT_EQ(cut.false_segments, whole.false_segments - 2);
   EXPECT_EQ(cut.segments, whole.segments);
+}
+
+// Seed 2's pile 37: LCCP and the cut where pixels fall apart leave a ring as three arcs of 63-70
+// pixels, none half of it (no object found, three false segments). Along their principal axes
+// two arcs together do not fit an object's size (a ring's arcs curve), so the join by size leaves
+// them. Each is small and elongated, a piece of an object rather than a small solid's top: joined
+// while the union fits an object's size in some turn, the arcs are the ring, found.
+TEST(PileSegmentation, SmallElongatedPiecesLeftAreJoinedWhereTheyFitAnObjectInSomeTurn) {
+  auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
+  Score apart, joined;
+  scorePile(*w, 2, 37, 640, 480, apart, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, 0);
+  scorePile(*w, 2, 37, 640, 480, joined, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, SegmentationOptions{}.crumb_pixels);
+  EXPECT_EQ(joined.grades["hollow"].found, apart.grades["hollow"].found + 1);
+  EXPECT_EQ(joined.false_segments, apart.false_segments - 3);
+  EXPECT_EQ(joined.segments, apart.segments - 2);
 }
 
 // The oracle's segments (perception.segmentation: labels), from the same noisy depth: every object
