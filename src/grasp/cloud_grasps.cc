@@ -297,6 +297,10 @@ class Normals {
   std::vector<int> nb_;
 };
 
+// The farthest the centre of the run of points between the pads can be from the hand's seed: the
+// run holds the seed and is no wider than the stroke less the fingers' margins.
+double runCentreReach(const CloudGraspOptions& o) { return std::max(0.0, o.hand_opening / 2 - o.finger_margin); }
+
 }  // namespace
 
 CloudGraspOptions cloudGraspOptionsFor(const GraspOptions& hand) {
@@ -443,7 +447,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   // (the fingers' slab: a point farther changes no check).
   const double d_first = o.min_bite - o.pad_z_max, d_last = -o.pad_z_min + 1e-9;
   const double half_span = o.hand_opening / 2 + o.finger_thickness;
-  const double centre_max = std::max(0.0, o.hand_opening / 2 - o.finger_margin);
+  const double centre_max = runCentreReach(o);
   const double fingers_y = centre_max + half_span + std::max(o.padding, 0.02) + 1e-9;
   const double body_y = centre_max + o.hand_half_width + o.padding + 1e-9;
   const double fingers_x = o.pad_half_width + o.padding + 1e-9;
@@ -911,7 +915,7 @@ bool handTooLowAtFirstDepth(const Mat3& R, double seed_height, const Vec3& up, c
   // as the stroke allows towards the side the body rises on.
   const double fingers = -gx * (o.pad_half_width + pad) - gy * (o.finger_margin + o.finger_thickness + pad) + gz * d_first +
                          std::min(gz * o.pad_z_min, gz * (o.pad_z_max + pad));
-  const double body = -gx * (o.hand_half_thickness + pad) + gy * (o.hand_opening / 2 - o.finger_margin) - gy * (o.hand_half_width + pad) +
+  const double body = -gx * (o.hand_half_thickness + pad) + gy * runCentreReach(o) - gy * (o.hand_half_width + pad) +
                       gz * (d_first - o.hand_back + pad);
   return seed_height + std::min(fingers, body) < o.floor_clearance - 1e-9;  // 1e-9: the loop's own sums round otherwise
 }
