@@ -94,6 +94,17 @@ void joinSanityRefused(const std::map<std::uint32_t, pcl::Supervoxel<pcl::PointX
   for (auto& [sv, seg] : segment_of) seg = find(seg);
 }
 
+// The spans of points a and b together along the orthonormal axes x and y, measured from `origin`.
+Vec2 spansAlong(const std::vector<Vec2>& a, const std::vector<Vec2>& b, const Vec2& origin, const Vec2& x, const Vec2& y) {
+  double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+  for (const auto* v : {&a, &b})
+    for (const Vec2& p : *v) {
+      const double s0 = (p - origin).dot(x), s1 = (p - origin).dot(y);
+      lo[0] = std::min(lo[0], s0), hi[0] = std::max(hi[0], s0), lo[1] = std::min(lo[1], s1), hi[1] = std::max(hi[1], s1);
+    }
+  return Vec2(hi[0] - lo[0], hi[1] - lo[1]);
+}
+
 // The principal extents (major, minor) of points seen from above: the points' spread along the
 // eigenvectors of their covariance in the region's xy.
 std::pair<double, double> extentsFromAbove(const std::vector<Vec2>& a, const std::vector<Vec2>& b) {
@@ -110,13 +121,8 @@ std::pair<double, double> extentsFromAbove(const std::vector<Vec2>& a, const std
     }
   const double angle = 0.5 * std::atan2(2 * sxy, sxx - syy);  // the major axis
   const Vec2 major(std::cos(angle), std::sin(angle)), minor(-major.y(), major.x());
-  double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
-  for (const auto* v : {&a, &b})
-    for (const Vec2& p : *v) {
-      const double s0 = (p - mean).dot(major), s1 = (p - mean).dot(minor);
-      lo[0] = std::min(lo[0], s0), hi[0] = std::max(hi[0], s0), lo[1] = std::min(lo[1], s1), hi[1] = std::max(hi[1], s1);
-    }
-  return {hi[0] - lo[0], hi[1] - lo[1]};
+  const Vec2 spans = spansAlong(a, b, mean, major, minor);
+  return {spans.x(), spans.y()};
 }
 
 // An LCCP segment larger than any object can be (its supervoxels' voxels, seen from above, do not
@@ -203,13 +209,8 @@ double fitInSomeTurn(const std::vector<Vec2>& a, const std::vector<Vec2>& b, dou
   for (int degrees = 0; degrees < 90; ++degrees) {
     const double t = degrees * M_PI / 180;
     const Vec2 x(std::cos(t), std::sin(t)), y(-x.y(), x.x());
-    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
-    for (const auto* v : {&a, &b})
-      for (const Vec2& p : *v) {
-        const double s0 = p.dot(x), s1 = p.dot(y);
-        lo[0] = std::min(lo[0], s0), hi[0] = std::max(hi[0], s0), lo[1] = std::min(lo[1], s1), hi[1] = std::max(hi[1], s1);
-      }
-    const double longer = std::max(hi[0] - lo[0], hi[1] - lo[1]), shorter = std::min(hi[0] - lo[0], hi[1] - lo[1]);
+    const Vec2 spans = spansAlong(a, b, Vec2::Zero(), x, y);
+    const double longer = spans.maxCoeff(), shorter = spans.minCoeff();
     if (longer <= max_length && shorter <= max_width) best = std::min(best, longer);
   }
   return best;
