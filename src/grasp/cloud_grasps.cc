@@ -141,6 +141,11 @@ class NearBlocks {
   bool meets(size_t i, double hx, double hy, double zlo, double zhi) const {
     return std::abs(m_[0][i]) <= hx + s_[0][i] && std::abs(m_[1][i]) <= hy + s_[1][i] && m_[2][i] >= zlo - s_[2][i] && m_[2][i] <= zhi + s_[2][i];
   }
+  /// Whether block i can meet the box [-hx, hx] x [ylo, yhi] x [zlo, zhi] of the hand's frame.
+  bool meets(size_t i, double hx, double ylo, double yhi, double zlo, double zhi) const {
+    return std::abs(m_[0][i]) <= hx + s_[0][i] && m_[1][i] >= ylo - s_[1][i] && m_[1][i] <= yhi + s_[1][i] && m_[2][i] >= zlo - s_[2][i] &&
+           m_[2][i] <= zhi + s_[2][i];
+  }
   size_t size() const { return list_.size(); }
   const Block& operator[](size_t i) const { return list_[i]; }
 
@@ -422,11 +427,15 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
       finger[k].half = Vec3(o.pad_half_width, o.finger_thickness / 2, (o.pad_z_max - o.pad_z_min + kBackUp) / 2);
       finger[k].centre = tcp + Rg * Vec3(0, side * (open + o.finger_thickness / 2), (o.pad_z_max + o.pad_z_min - kBackUp) / 2);
     }
+    const double finger_ball = finger[0].half.norm();
     std::vector<int> owners;  // of the boxes a finger is in
     for (const OwnedBox& b : o.boxes) {
       if ((b.T_world.translation() - tcp).norm() > within + b.half.norm() + pad) continue;
       if (std::find(owners.begin(), owners.end(), b.owner) != owners.end()) continue;
       const OrientedBox box{b.T_world.translation(), b.T_world.linear(), b.half + Vec3::Constant(pad)};
+      // Boxes whose balls are apart are (1 um for the rounding of the sums) before the exact test.
+      const double balls = box.half.norm() + finger_ball + 1e-6;
+      if ((finger[0].centre - box.centre).squaredNorm() > balls * balls && (finger[1].centre - box.centre).squaredNorm() > balls * balls) continue;
       if (!boxesOverlap(finger[0], box) && !boxesOverlap(finger[1], box)) continue;
       if (b.owner < 0) return true;  // a patch no object explains is never the one held
       owners.push_back(b.owner);
@@ -437,6 +446,8 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
     return std::any_of(owners.begin(), owners.end(), [&](int k) { return k != target; });
   };
 
+  // The clearance beside the fingers is measured up to this (a hand's score reads no more).
+  constexpr double kClearFar = 0.02;  // [m]
   // In a hand's frame about its seed, the points a test of it reads over all its depths lie in two
   // boxes (conservative bounds, 1e-9 wider for the rounding of the tests' sums): the fingers' slab
   // (the fingers' padded sweep along the approach, the points between and beside the pads) and
@@ -448,7 +459,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   const double d_first = o.min_bite - o.pad_z_max, d_last = -o.pad_z_min + 1e-9;
   const double half_span = o.hand_opening / 2 + o.finger_thickness;
   const double centre_max = runCentreReach(o);
-  const double fingers_y = centre_max + half_span + std::max(o.padding, 0.02) + 1e-9;
+  const double fingers_y = centre_max + half_span + std::max(o.padding, kClearFar) + 1e-9;
   const double body_y = centre_max + o.hand_half_width + o.padding + 1e-9;
   const double fingers_x = o.pad_half_width + o.padding + 1e-9;
   const double fingers_z_lo = d_first + std::min(o.pad_z_min, -o.hand_back - o.approach_clear) - 1e-9;
@@ -484,6 +495,11 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   std::vector<double> ys_pos(tested.size()), ys_neg(tested.size());
   std::vector<char> wall_pos(tested.size()), wall_neg(tested.size());
   std::vector<double> run_(tested.size());  // the run's points not yet passed
+  // A hand's blocks (of `blocks`, those meeting its boxes; of `near_pads`, those meeting the pads'
+  // box not yet gathered), and where each one's points are among the obstacles once computed.
+  std::vector<size_t> hand_blocks, hand_pad_blocks;
+  std::vector<std::pair<size_t, size_t>> span;
+  std::vector<char> spanned;
   // The hands of `n_seeds` seeds, each kept one added to `found`; the second look of a view that
   // gave none or only weak ones (snap_down, floor_contacts, weak_score): `second_look`.
   std::vector<GraspCandidate> found;  // every hand kept, of both looks
@@ -614,27 +630,51 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
             }
           };
           // The points that may lie between the pads at some depth (the contacts; not the floor's),
-          // read first: most hands end on them alone (too wide, on a wall, too low).
+          // read first: most hands end on them alone (too wide, on a wall, too low). Gathered block by
+          // block as the depths reach them (most hands end at the first): padsAt(d) adds those of the
+          // blocks that meet the pads' box at depth d. A depth reads the points between its pads in
+          // any order (the run's ends, its walls and the contact faces are extremes and tests over
+          // all of them, the same in any order).
           n_pads = 0;
-          for (size_t i = 0; i < near_pads.size(); ++i) {
-            if (!near_pads.meets(i, o.pad_half_width, half_span, pads_z_lo, pads_z_hi)) continue;
-            inHand(near_pads[i], pad_x, pad_y, pad_z, o.pad_half_width, [&](size_t k, double px, double py, double pz) {
-              pads[n_pads] = {Vec3(px, py, pz), pad_cell[k]};
-              n_pads += (std::abs(py) <= half_span) & (pz >= pads_z_lo) & (pz <= pads_z_hi);
-            });
-          }
+          hand_pad_blocks.clear();
+          for (size_t i = 0; i < near_pads.size(); ++i)
+            if (near_pads.meets(i, o.pad_half_width, half_span, pads_z_lo, pads_z_hi)) hand_pad_blocks.push_back(i);
+          size_t pads_left = hand_pad_blocks.size();  // not gathered yet: the first pads_left of hand_pad_blocks
+          auto padsAt = [&](double d) {
+            for (size_t t = 0; t < pads_left;) {
+              const size_t i = hand_pad_blocks[t];
+              if (!near_pads.meets(i, o.pad_half_width, half_span, d + o.pad_z_min - 1e-9, d + o.pad_z_max + 1e-9)) {
+                ++t;
+                continue;
+              }
+              inHand(near_pads[i], pad_x, pad_y, pad_z, o.pad_half_width, [&](size_t k, double px, double py, double pz) {
+                pads[n_pads] = {Vec3(px, py, pz), pad_cell[k]};
+                n_pads += (std::abs(py) <= half_span) & (pz >= pads_z_lo) & (pz <= pads_z_hi);
+              });
+              hand_pad_blocks[t] = hand_pad_blocks[--pads_left];
+            }
+          };
           // The obstacles (but the floor within its noise, checked as the plane) in the boxes the
-          // fingers and the body sweep at some depth, block by block in the tested points' order,
-          // gathered as a depth's sweep reads on (one that is blocked early reads few blocks):
-          // moreObstacles gathers the next block's, false when no block is left.
+          // fingers and the body sweep at some depth: the blocks that meet those boxes, in the tested
+          // points' order (listed when a depth first reads obstacles: fewer than half the hands do),
+          // each block's points in the hand's frame computed when a depth's regions first meet it
+          // (obstaclesOf: where they are among the obstacles), kept for the deeper depths.
           n_obstacles = 0;
-          size_t next_block = 0;
-          auto moreObstacles = [&]() {
-            if (next_block == 0) blocks.project(R);  // fewer than half the hands gather any
-            while (next_block < blocks.size()) {
-              const size_t i = next_block++;
-              if (!blocks.meets(i, fingers_x, fingers_y, fingers_z_lo, fingers_z_hi) && !blocks.meets(i, body_x, body_y, body_z_lo, body_z_hi)) continue;
-              inHand(blocks[i], tx, ty, tz, std::max(fingers_x, body_x), [&](size_t k, double px, double py, double pz) {
+          bool listed = false;
+          auto listBlocks = [&]() {
+            blocks.project(R);
+            hand_blocks.clear();
+            for (size_t i = 0; i < blocks.size(); ++i)
+              if (blocks.meets(i, fingers_x, fingers_y, fingers_z_lo, fingers_z_hi) || blocks.meets(i, body_x, body_y, body_z_lo, body_z_hi))
+                hand_blocks.push_back(i);
+            span.assign(hand_blocks.size(), {0, 0});
+            spanned.assign(hand_blocks.size(), 0);
+            listed = true;
+          };
+          auto obstaclesOf = [&](size_t t) {
+            if (!spanned[t]) {
+              const size_t first = n_obstacles;
+              inHand(blocks[hand_blocks[t]], tx, ty, tz, std::max(fingers_x, body_x), [&](size_t k, double px, double py, double pz) {
                 const double across = std::abs(px);
                 const double along = std::abs(py);
                 const bool fingers = (across <= fingers_x) & (along <= fingers_y) & (pz >= fingers_z_lo) & (pz <= fingers_z_hi);
@@ -642,9 +682,10 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
                 obstacles[n_obstacles] = {Vec3(px, py, pz), t_cell[k]};
                 n_obstacles += (fingers | body) & !t_on_plane[k];
               });
-              return true;
+              span[t] = {first, n_obstacles};
+              spanned[t] = 1;
             }
-            return false;
+            return span[t];
           };
           // Push the hand forward: the TCP at depth d along z from the seed. The deepest hand whose
           // straight approach is clear, with enough points between the pads, is kept.
@@ -661,6 +702,7 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
           int low_contacts = 0, low_points = 0;
           double low_clear = 0, low_margin = 0;
           for (double d = d_first; d <= d_last; d += o.depth_step) {
+            padsAt(d);
             // Between the pads: the run of points along y around the seed, split by a gap a finger fits in.
             size_t n_pos = 0, n_neg = 0;
             for (size_t i = 0; i < n_pads; ++i) {  // written at the end of both, kept by one or neither (no branch)
@@ -736,26 +778,45 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
             // The fingers and the hand body, swept along the straight approach back from the grasp.
             int blocked = kNone;
             int between = 0;
-            double clear = 0.02;
-            for (size_t i = 0;; ++i) {
-              while (i == n_obstacles && moreObstacles()) {
-              }
-              if (i == n_obstacles) break;
-              const Local& l = obstacles[i];
-              const double zz = l.p.z() - d, yy = l.p.y() - c, ay = std::abs(yy);
-              if (zz <= o.pad_z_max + pad && zz >= -o.hand_back - o.approach_clear && std::abs(l.p.x()) <= o.pad_half_width + pad &&
-                  ay >= open && ay <= open + o.finger_thickness + pad) {
-                blocked = kFingers;
-                break;
-              }
-              if (zz < -o.hand_back + pad && zz >= -o.hand_back - o.hand_length - o.approach_clear &&
-                  std::abs(l.p.x()) <= o.hand_half_thickness + pad && ay <= o.hand_half_width + pad) {
-                blocked = kHand;
-                break;
-              }
-              if (std::abs(l.p.x()) <= o.pad_half_width && zz >= o.pad_z_min && zz <= o.pad_z_max) {
-                if (ay < open) between += l.part != kFloor;
-                else clear = std::min(clear, ay - open - o.finger_thickness);
+            double clear = kClearFar;
+            // The obstacles in their order, of the blocks that meet one of this depth's regions (a
+            // block that meets none holds no point a test below counts; the first point that blocks
+            // is the first as if all were read): the fingers' padded sweep on each side of the run,
+            // the hand's, and the pads' box widened to where a point beside a finger lowers the
+            // clearance. Each region is 1e-9 wider for the rounding of the tests' sums, the pads'
+            // 1e-6 (its test is on |y - c|, theirs on y).
+            if (!listed) listBlocks();
+            constexpr double kSlack = 1e-9;
+            const double fy_in = open - kSlack, fy_out = open + o.finger_thickness + pad + kSlack;
+            const double f_zlo = d - o.hand_back - o.approach_clear - kSlack, f_zhi = d + o.pad_z_max + pad + kSlack;
+            const double h_y = o.hand_half_width + pad + kSlack, h_zlo = d - o.hand_back - o.hand_length - o.approach_clear - kSlack,
+                         h_zhi = d - o.hand_back + pad + kSlack;
+            const double p_y = open + o.finger_thickness + kClearFar + 1e-6, p_zlo = d + o.pad_z_min - kSlack, p_zhi = d + o.pad_z_max + kSlack;
+            for (size_t t = 0; t < hand_blocks.size() && blocked == kNone; ++t) {
+              const size_t b = hand_blocks[t];
+              if (!blocks.meets(b, o.pad_half_width + pad + kSlack, c + fy_in, c + fy_out, f_zlo, f_zhi) &&
+                  !blocks.meets(b, o.pad_half_width + pad + kSlack, c - fy_out, c - fy_in, f_zlo, f_zhi) &&
+                  !blocks.meets(b, o.hand_half_thickness + pad + kSlack, c - h_y, c + h_y, h_zlo, h_zhi) &&
+                  !blocks.meets(b, o.pad_half_width + kSlack, c - p_y, c + p_y, p_zlo, p_zhi))
+                continue;
+              const auto [first, last] = obstaclesOf(t);
+              for (size_t i = first; i < last; ++i) {
+                const Local& l = obstacles[i];
+                const double zz = l.p.z() - d, yy = l.p.y() - c, ay = std::abs(yy);
+                if (zz <= o.pad_z_max + pad && zz >= -o.hand_back - o.approach_clear && std::abs(l.p.x()) <= o.pad_half_width + pad &&
+                    ay >= open && ay <= open + o.finger_thickness + pad) {
+                  blocked = kFingers;
+                  break;
+                }
+                if (zz < -o.hand_back + pad && zz >= -o.hand_back - o.hand_length - o.approach_clear &&
+                    std::abs(l.p.x()) <= o.hand_half_thickness + pad && ay <= o.hand_half_width + pad) {
+                  blocked = kHand;
+                  break;
+                }
+                if (std::abs(l.p.x()) <= o.pad_half_width && zz >= o.pad_z_min && zz <= o.pad_z_max) {
+                  if (ay < open) between += l.part != kFloor;
+                  else clear = std::min(clear, ay - open - o.finger_thickness);
+                }
               }
             }
             if (blocked != kNone) {
