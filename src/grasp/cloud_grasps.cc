@@ -142,7 +142,7 @@ class NearBlocks {
     return std::abs(m_[0][i]) <= hx + s_[0][i] && std::abs(m_[1][i]) <= hy + s_[1][i] && m_[2][i] >= zlo - s_[2][i] && m_[2][i] <= zhi + s_[2][i];
   }
   /// Whether block i can meet the box [-hx, hx] x [ylo, yhi] x [zlo, zhi] of the hand's frame.
-  bool meets(size_t i, double hx, double ylo, double yhi, double zlo, double zhi) const {
+  bool meetsBox(size_t i, double hx, double ylo, double yhi, double zlo, double zhi) const {
     return std::abs(m_[0][i]) <= hx + s_[0][i] && m_[1][i] >= ylo - s_[1][i] && m_[1][i] <= yhi + s_[1][i] && m_[2][i] >= zlo - s_[2][i] &&
            m_[2][i] <= zhi + s_[2][i];
   }
@@ -427,15 +427,11 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
       finger[k].half = Vec3(o.pad_half_width, o.finger_thickness / 2, (o.pad_z_max - o.pad_z_min + kBackUp) / 2);
       finger[k].centre = tcp + Rg * Vec3(0, side * (open + o.finger_thickness / 2), (o.pad_z_max + o.pad_z_min - kBackUp) / 2);
     }
-    const double finger_ball = finger[0].half.norm();
     std::vector<int> owners;  // of the boxes a finger is in
     for (const OwnedBox& b : o.boxes) {
       if ((b.T_world.translation() - tcp).norm() > within + b.half.norm() + pad) continue;
       if (std::find(owners.begin(), owners.end(), b.owner) != owners.end()) continue;
       const OrientedBox box{b.T_world.translation(), b.T_world.linear(), b.half + Vec3::Constant(pad)};
-      // Boxes whose balls are apart are (1 um for the rounding of the sums) before the exact test.
-      const double balls = box.half.norm() + finger_ball + 1e-6;
-      if ((finger[0].centre - box.centre).squaredNorm() > balls * balls && (finger[1].centre - box.centre).squaredNorm() > balls * balls) continue;
       if (!boxesOverlap(finger[0], box) && !boxesOverlap(finger[1], box)) continue;
       if (b.owner < 0) return true;  // a patch no object explains is never the one held
       owners.push_back(b.owner);
@@ -495,8 +491,9 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   std::vector<double> ys_pos(tested.size()), ys_neg(tested.size());
   std::vector<char> wall_pos(tested.size()), wall_neg(tested.size());
   std::vector<double> run_(tested.size());  // the run's points not yet passed
-  // A hand's blocks (of `blocks`, those meeting its boxes; of `near_pads`, those meeting the pads'
-  // box not yet gathered), and where each one's points are among the obstacles once computed.
+  // A hand's blocks: of `blocks`, those meeting its boxes, and where each one's points are among
+  // the obstacles once computed; of `near_pads`, those meeting the pads' box over all depths (the
+  // first of them not gathered yet).
   std::vector<size_t> hand_blocks, hand_pad_blocks;
   std::vector<std::pair<size_t, size_t>> span;
   std::vector<char> spanned;
@@ -782,9 +779,9 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
             // The obstacles in their order, of the blocks that meet one of this depth's regions (a
             // block that meets none holds no point a test below counts; the first point that blocks
             // is the first as if all were read): the fingers' padded sweep on each side of the run,
-            // the hand's, and the pads' box widened to where a point beside a finger lowers the
-            // clearance. Each region is 1e-9 wider for the rounding of the tests' sums, the pads'
-            // 1e-6 (its test is on |y - c|, theirs on y).
+            // the hand body's, and between and beside the pads out to where a point lowers the
+            // clearance (|y - c| - open - finger_thickness < kClearFar). Each region is 1e-9 wider
+            // for the rounding of the tests' sums, the last 1e-6 (the rounding of that difference).
             if (!listed) listBlocks();
             constexpr double kSlack = 1e-9;
             const double fy_in = open - kSlack, fy_out = open + o.finger_thickness + pad + kSlack;
@@ -794,10 +791,10 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
             const double p_y = open + o.finger_thickness + kClearFar + 1e-6, p_zlo = d + o.pad_z_min - kSlack, p_zhi = d + o.pad_z_max + kSlack;
             for (size_t t = 0; t < hand_blocks.size() && blocked == kNone; ++t) {
               const size_t b = hand_blocks[t];
-              if (!blocks.meets(b, o.pad_half_width + pad + kSlack, c + fy_in, c + fy_out, f_zlo, f_zhi) &&
-                  !blocks.meets(b, o.pad_half_width + pad + kSlack, c - fy_out, c - fy_in, f_zlo, f_zhi) &&
-                  !blocks.meets(b, o.hand_half_thickness + pad + kSlack, c - h_y, c + h_y, h_zlo, h_zhi) &&
-                  !blocks.meets(b, o.pad_half_width + kSlack, c - p_y, c + p_y, p_zlo, p_zhi))
+              if (!blocks.meetsBox(b, o.pad_half_width + pad + kSlack, c + fy_in, c + fy_out, f_zlo, f_zhi) &&
+                  !blocks.meetsBox(b, o.pad_half_width + pad + kSlack, c - fy_out, c - fy_in, f_zlo, f_zhi) &&
+                  !blocks.meetsBox(b, o.hand_half_thickness + pad + kSlack, c - h_y, c + h_y, h_zlo, h_zhi) &&
+                  !blocks.meetsBox(b, o.pad_half_width + kSlack, c - p_y, c + p_y, p_zlo, p_zhi))
                 continue;
               const auto [first, last] = obstaclesOf(t);
               for (size_t i = first; i < last; ++i) {
