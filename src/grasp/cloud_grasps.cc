@@ -138,9 +138,7 @@ class NearBlocks {
     }
   }
   /// Whether block i can meet the box [-hx, hx] x [-hy, hy] x [zlo, zhi] of the hand's frame.
-  bool meets(size_t i, double hx, double hy, double zlo, double zhi) const {
-    return std::abs(m_[0][i]) <= hx + s_[0][i] && std::abs(m_[1][i]) <= hy + s_[1][i] && m_[2][i] >= zlo - s_[2][i] && m_[2][i] <= zhi + s_[2][i];
-  }
+  bool meets(size_t i, double hx, double hy, double zlo, double zhi) const { return meetsBox(i, hx, -hy, hy, zlo, zhi); }
   /// Whether block i can meet the box [-hx, hx] x [ylo, yhi] x [zlo, zhi] of the hand's frame.
   bool meetsBox(size_t i, double hx, double ylo, double yhi, double zlo, double zhi) const {
     return std::abs(m_[0][i]) <= hx + s_[0][i] && m_[1][i] >= ylo - s_[1][i] && m_[1][i] <= yhi + s_[1][i] && m_[2][i] >= zlo - s_[2][i] &&
@@ -495,8 +493,8 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
   // the obstacles once computed; of `near_pads`, those meeting the pads' box over all depths (the
   // first of them not gathered yet).
   std::vector<size_t> hand_blocks, hand_pad_blocks;
+  constexpr size_t kNotYet = SIZE_MAX;  // a span's first: the block's points not computed yet
   std::vector<std::pair<size_t, size_t>> span;
-  std::vector<char> spanned;
   // The hands of `n_seeds` seeds, each kept one added to `found`; the second look of a view that
   // gave none or only weak ones (snap_down, floor_contacts, weak_score): `second_look`.
   std::vector<GraspCandidate> found;  // every hand kept, of both looks
@@ -664,12 +662,11 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
             for (size_t i = 0; i < blocks.size(); ++i)
               if (blocks.meets(i, fingers_x, fingers_y, fingers_z_lo, fingers_z_hi) || blocks.meets(i, body_x, body_y, body_z_lo, body_z_hi))
                 hand_blocks.push_back(i);
-            span.assign(hand_blocks.size(), {0, 0});
-            spanned.assign(hand_blocks.size(), 0);
+            span.assign(hand_blocks.size(), {kNotYet, 0});
             listed = true;
           };
           auto obstaclesOf = [&](size_t t) {
-            if (!spanned[t]) {
+            if (span[t].first == kNotYet) {
               const size_t first = n_obstacles;
               inHand(blocks[hand_blocks[t]], tx, ty, tz, std::max(fingers_x, body_x), [&](size_t k, double px, double py, double pz) {
                 const double across = std::abs(px);
@@ -680,7 +677,6 @@ CloudGraspResult cloudGrasps(const Frame& frame, const CloudGraspOptions& o, con
                 n_obstacles += (fingers | body) & !t_on_plane[k];
               });
               span[t] = {first, n_obstacles};
-              spanned[t] = 1;
             }
             return span[t];
           };
