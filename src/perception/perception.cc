@@ -60,8 +60,10 @@ SegmentationOptions segmentationOptions(const PerceptionOptions& o) {
   // Known objects: the models pose LCCP's own segments (a pose takes the pixels it explains, and
   // what it leaves is posed again), as their measurements were made; the joins were measured on
   // generated objects only, and so were the second cut of a segment larger than any object, the
-  // cut of a segment whose pixels fall apart, the join of small elongated pieces, and the cut at a waist.
-  if (o.known_models) so.sanity_join = 0, so.recut_tolerance = 0, so.split_unconnected = false, so.crumb_pixels = 0, so.waist_depth = 0;
+  // cut of a segment whose pixels fall apart, the join of small elongated pieces, and the cuts at a
+  // waist and at a bridge.
+  if (o.known_models)
+    so.sanity_join = 0, so.recut_tolerance = 0, so.split_unconnected = false, so.crumb_pixels = 0, so.waist_depth = 0, so.bridge_width = 0;
   return so;
 }
 

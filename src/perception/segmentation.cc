@@ -432,6 +432,127 @@ void splitAtWaists(const Frame& frame, std::vector<Segment>& segments, const Seg
   }
 }
 
+// Two objects side by side whose tops meet at about one height: the camera loses the pixels along
+// the line where they touch, all but for a few, and the segment's pixels hang together by a
+// narrow bridge (splitUnconnected cuts only where none is left). Each segment of at least twice
+// min_pixels: its own pixels eroded by a diamond of radius r (half bridge_width at the segment's
+// mean depth, at least one pixel); the eroded pixels' 4-connected components of at least the core
+// area are its cores. With two cores or more, each of its pixels goes to the nearest core through
+// its pixels (breadth first from all cores at once, 4-connected; a pixel no core reaches to the
+// largest part). The cut is kept where every part has min_pixels and the line between them is of
+// no depth: the pixels of no depth with two parts within 2r of them (in the (4r+1)^2 window), at
+// least bridge_gap times the neighbouring pixel pairs of two parts. A neck of one object (a
+// blend's two parts, a bar's bend) is parted mostly by its outline, not by such a line. The parts
+// after the first are added after the others and not cut again.
+void splitAtBridges(const Frame& frame, std::vector<Segment>& segments, const SegmentationOptions& o, const Pose& T_region_world) {
+  const CameraModel& cam = frame.camera;
+  const int w = cam.width, h = cam.height;
+  const Pose T_camera_world = cam.T_world_camera.inverse();
+  const size_t n = segments.size();
+  constexpr std::array<std::pair<int, int>, 4> kSides{{{1, 0}, {-1, 0}, {0, 1}, {0, -1}}};
+  for (size_t s = 0; s < n; ++s) {
+    Segment& seg = segments[s];
+    const size_t m = seg.pixels.size();
+    if (static_cast<int>(m) < 2 * o.min_pixels) continue;
+    double z = 0;
+    for (const Vec3& p : seg.points) z += (T_camera_world * p).z();
+    z /= static_cast<double>(m);
+    if (!(z > 0)) continue;
+    const double px_per_m = cam.fx / z;
+    const int r = std::max(1, static_cast<int>(std::lround(o.bridge_width / 2 * px_per_m)));
+    const double min_core = o.bridge_core_area * px_per_m * px_per_m;
+    // The segment's box, 2r wider all round: its pixels' places in it.
+    int u0 = w, v0 = h, u1 = -1, v1 = -1;
+    for (int p : seg.pixels) u0 = std::min(u0, p % w), u1 = std::max(u1, p % w), v0 = std::min(v0, p / w), v1 = std::max(v1, p / w);
+    const int pad = 2 * r, bw = u1 - u0 + 1 + 2 * pad, bh = v1 - v0 + 1 + 2 * pad;
+    const size_t cells = static_cast<size_t>(bw) * static_cast<size_t>(bh);
+    auto cellOf = [&](int p) { return static_cast<size_t>((p / w - v0 + pad) * bw + (p % w - u0 + pad)); };
+    std::vector<char> in(cells, 0);
+    for (int p : seg.pixels) in[cellOf(p)] = 1;
+    std::vector<char> core(cells, 0);
+    for (int y = pad; y < bh - pad; ++y)
+      for (int x = pad; x < bw - pad; ++x) {
+        bool all = in[static_cast<size_t>(y * bw + x)];
+        for (int dy = -r; dy <= r && all; ++dy)
+          for (int dx = std::abs(dy) - r; dx <= r - std::abs(dy) && all; ++dx) all = in[static_cast<size_t>((y + dy) * bw + x + dx)];
+        core[static_cast<size_t>(y * bw + x)] = all;
+      }
+    // The cores' components, in the box's order; those large enough numbered as parts.
+    std::vector<int> part(cells, -1), comp(cells, -1);
+    std::vector<size_t> queue;
+    int parts = 0, comps = 0;
+    for (size_t i = 0; i < cells; ++i) {
+      if (!core[i] || comp[i] >= 0) continue;
+      const size_t first = queue.size();
+      comp[i] = comps, queue.push_back(i);
+      for (size_t k = first; k < queue.size(); ++k) {
+        const int x = static_cast<int>(queue[k] % static_cast<size_t>(bw)), y = static_cast<int>(queue[k] / static_cast<size_t>(bw));
+        for (const auto& [dx, dy] : kSides) {
+          const size_t q = static_cast<size_t>((y + dy) * bw + x + dx);  // within the box: a core is 2r inside it
+          if (core[q] && comp[q] < 0) comp[q] = comps, queue.push_back(q);
+        }
+      }
+      if (static_cast<double>(queue.size() - first) >= min_core) {
+        for (size_t k = first; k < queue.size(); ++k) part[queue[k]] = parts;
+        ++parts;
+      } else {
+        queue.resize(first);
+      }
+      ++comps;
+    }
+    if (parts < 2) continue;
+    // Every pixel to the nearest core through the segment's pixels.
+    for (size_t k = 0; k < queue.size(); ++k) {
+      const int x = static_cast<int>(queue[k] % static_cast<size_t>(bw)), y = static_cast<int>(queue[k] / static_cast<size_t>(bw));
+      for (const auto& [dx, dy] : kSides) {
+        const int xx = x + dx, yy = y + dy;
+        if (xx < 0 || yy < 0 || xx >= bw || yy >= bh) continue;
+        const size_t q = static_cast<size_t>(yy * bw + xx);
+        if (in[q] && part[q] < 0) part[q] = part[queue[k]], queue.push_back(q);
+      }
+    }
+    // The line between the parts: of no depth, or the parts' own outlines?
+    auto partAt = [&](int x, int y) { return x < 0 || y < 0 || x >= bw || y >= bh ? -1 : part[static_cast<size_t>(y * bw + x)]; };
+    long touching = 0, gap = 0;
+    for (int y = 0; y < bh; ++y)
+      for (int x = 0; x < bw; ++x) {
+        const int here = partAt(x, y);
+        if (here >= 0) {
+          touching += (partAt(x + 1, y) >= 0 && partAt(x + 1, y) != here) + (partAt(x, y + 1) >= 0 && partAt(x, y + 1) != here);
+          continue;
+        }
+        const int u = x - pad + u0, v = y - pad + v0;
+        if (u < 0 || v < 0 || u >= w || v >= h || frame.depth[static_cast<size_t>(v * w + u)] > 0) continue;
+        int first = -1;
+        bool two = false;
+        for (int dy = -2 * r; dy <= 2 * r && !two; ++dy)
+          for (int dx = -2 * r; dx <= 2 * r && !two; ++dx) {
+            const int q = partAt(x + dx, y + dy);
+            if (q < 0) continue;
+            if (first < 0) first = q;
+            two = q != first;
+          }
+        gap += two;
+      }
+    if (static_cast<double>(gap) < o.bridge_gap * static_cast<double>(touching)) continue;
+    std::vector<int> count(static_cast<size_t>(parts), 0);
+    for (int p : seg.pixels)
+      if (part[cellOf(p)] >= 0) ++count[static_cast<size_t>(part[cellOf(p)])];
+    if (*std::min_element(count.begin(), count.end()) < o.min_pixels) continue;
+    const int largest = static_cast<int>(std::max_element(count.begin(), count.end()) - count.begin());
+    std::vector<Segment> out(static_cast<size_t>(parts));
+    for (size_t k = 0; k < m; ++k) {
+      const int to = part[cellOf(seg.pixels[k])];
+      Segment& into = out[static_cast<size_t>(to >= 0 ? to : largest)];
+      into.pixels.push_back(seg.pixels[k]);
+      into.points.push_back(seg.points[k]);
+      into.top = std::max(into.top, (T_region_world * seg.points[k]).z());
+    }
+    seg = std::move(out[0]);
+    for (size_t k = 1; k < out.size(); ++k) segments.push_back(std::move(out[k]));
+  }
+}
+
 // The segments as objects (min_pixels or more), as pieces too small to be objects but rising above
 // the floor's noise (Segmentation::small), or dropped; each list by its first pixel.
 void keepSegments(std::vector<Segment>& segments, const SegmentationOptions& o, Segmentation& out) {
@@ -661,6 +782,7 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
     if (o.crumb_pixels > 0)
       joinWithinObjectSize(segments, near, T_region_world, o.max_object_length, o.max_object_width, o.crumb_pixels, o.crumb_aspect);
     if (o.waist_depth > 0) splitAtWaists(frame, segments, o, T_region_world);
+    if (o.bridge_width > 0) splitAtBridges(frame, segments, o, T_region_world);
   }
   keepSegments(segments, o, out);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

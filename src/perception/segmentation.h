@@ -84,6 +84,18 @@ struct SegmentationOptions {
   /// max_object_width), after the join by size; 0: never.
   double waist_depth = 0.01;
   double waist_ratio = 0.6;
+  /// [m] Two objects side by side whose pixels the camera parts by a line of no depth (where their
+  /// tops meet) all but for a narrow bridge stay one segment, and the join by size keeps two small
+  /// ones together. A segment whose own pixels, eroded by half this width (a 4-neighbour diamond,
+  /// in pixels at the segment's depth, at least one), fall apart into cores of at least
+  /// `bridge_core_area` each is cut: each pixel to the nearest core through the segment's pixels.
+  /// Only where the line is of no depth: the pixels of no depth near two of the parts (within
+  /// twice the erosion) at least `bridge_gap` times the pixels where the parts touch (a neck of
+  /// one object, a blend's parts, is mostly outline). After the cut at a waist; only with the
+  /// objects' size limits; 0: never.
+  double bridge_width = 0.005;
+  double bridge_core_area = 4e-4;  ///< [m^2] seen from above at the segment's depth (about 60 pixels at 640 x 480)
+  double bridge_gap = 6.0;
   // Region growing (PCL's RegionGrowing; its names) and clustering with normals (PCL's
   // ConditionalEuclideanClustering), each at the best of the settings measured.
   int grow_neighbours = 32;            ///< region growing: the nearest points a normal is fitted to, and its neighbours
