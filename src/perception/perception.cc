@@ -60,10 +60,11 @@ SegmentationOptions segmentationOptions(const PerceptionOptions& o) {
   // Known objects: the models pose LCCP's own segments (a pose takes the pixels it explains, and
   // what it leaves is posed again), as their measurements were made; the joins were measured on
   // generated objects only, and so were the second cut of a segment larger than any object, the
-  // cut of a segment whose pixels fall apart, the join of small elongated pieces, and the cuts at a
-  // waist and at a bridge.
+  // cut of a segment whose pixels fall apart, the joins of small elongated pieces and across a
+  // smooth border, and the cuts at a waist and at a bridge.
   if (o.known_models)
-    so.sanity_join = 0, so.recut_tolerance = 0, so.split_unconnected = false, so.crumb_pixels = 0, so.waist_depth = 0, so.bridge_width = 0;
+    so.sanity_join = 0, so.recut_tolerance = 0, so.split_unconnected = false, so.crumb_pixels = 0, so.smooth_step = 0, so.waist_depth = 0,
+        so.bridge_width = 0;
   return so;
 }
 

@@ -226,9 +226,34 @@ double fitInSomeTurn(const std::vector<Vec2>& a, const std::vector<Vec2>& b, dou
 // With `crumb_pixels` (SegmentationOptions::crumb_pixels), only pairs of which the smaller is a
 // crumb: fewer pixels than that, its own principal extents at least `crumb_aspect` to one; and
 // the union fits in some turn (fitInSomeTurn), not along its principal axes.
+// With `frame` (SegmentationOptions::smooth_step), only pairs whose border in the image is smooth:
+// of the pixel pairs where they touch (4-neighbours), at least `smooth_pairs` and at least
+// `smooth_share` of them differ in depth by at most `smooth_step`; and the union fits in some turn.
 void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<int>>& near, const Pose& T_region_world,
-                          double max_length, double max_width, int crumb_pixels = 0, double crumb_aspect = 0) {
+                          double max_length, double max_width, int crumb_pixels = 0, double crumb_aspect = 0,
+                          const Frame* frame = nullptr, double smooth_step = 0, double smooth_share = 0, int smooth_pairs = 0) {
   const size_t n = segments.size();
+  std::vector<int> owner;  // with `frame`: each pixel's segment (-1: none)
+  if (frame) {
+    owner.assign(frame->depth.size(), -1);
+    for (size_t i = 0; i < n; ++i)
+      for (int p : segments[i].pixels) owner[static_cast<size_t>(p)] = static_cast<int>(i);
+  }
+  auto smoothBorder = [&](size_t i, size_t j) {
+    const int w = frame->camera.width, h = frame->camera.height;
+    int touch = 0, smooth = 0;
+    for (int p : segments[i].pixels) {
+      const int u = p % w, v = p / w;
+      for (const auto& [du, dv] : {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
+        if (u + du < 0 || v + dv < 0 || u + du >= w || v + dv >= h) continue;
+        const int q = p + dv * w + du;
+        if (owner[static_cast<size_t>(q)] != static_cast<int>(j)) continue;
+        ++touch;
+        smooth += std::abs(frame->depth[static_cast<size_t>(p)] - frame->depth[static_cast<size_t>(q)]) <= smooth_step;
+      }
+    }
+    return smooth >= smooth_pairs && smooth >= smooth_share * touch;
+  };
   std::vector<std::vector<Vec2>> xy(n);
   for (size_t i = 0; i < n; ++i)
     for (const Vec3& p : segments[i].points) xy[i].push_back((T_region_world * p).head<2>());
@@ -251,7 +276,9 @@ void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<i
         auto it = fit.find({static_cast<int>(i), j});
         if (it == fit.end()) {
           double length = INFINITY;
-          if (crumb_pixels <= 0) {
+          if (frame) {
+            if (smoothBorder(i, uj)) length = fitInSomeTurn(xy[i], xy[uj], max_length, max_width);
+          } else if (crumb_pixels <= 0) {
             const auto [l, w] = extentsFromAbove(xy[i], xy[uj]);
             if (l <= max_length && w <= max_width) length = l;
           } else if (crumb(segments[i].pixels.size() <= segments[uj].pixels.size() ? i : uj)) {
@@ -274,6 +301,8 @@ void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<i
     for (const auto& [pixel, point] : merged) joined.pixels.push_back(pixel), joined.points.push_back(point);
     segments[a] = std::move(joined);
     segments[b] = Segment{};
+    if (frame)
+      for (int p : segments[a].pixels) owner[static_cast<size_t>(p)] = bi;
     xy[a].insert(xy[a].end(), xy[b].begin(), xy[b].end());
     xy[b].clear();
     for (auto it = fit.begin(); it != fit.end();)
@@ -350,6 +379,14 @@ void splitUnconnected(int width, std::vector<Segment>& segments, std::vector<std
   near = std::move(near_pieces);
 }
 
+// A segment's points' mean distance along the camera's axis (T_camera_world: the world in the
+// camera's frame).
+double meanDepth(const Segment& seg, const Pose& T_camera_world) {
+  double z = 0;
+  for (const Vec3& p : seg.points) z += (T_camera_world * p).z();
+  return z / static_cast<double>(seg.points.size());
+}
+
 // A segment that holds two objects side by side (LCCP took the valley between them for convex, or
 // the join by size put them together) often shows it in its outline: seen from above, each solid
 // is convex, and where they touch the outline narrows to a waist between two concavities. Each
@@ -369,9 +406,7 @@ void splitAtWaists(const Frame& frame, std::vector<Segment>& segments, const Seg
     Segment& seg = segments[s];
     if (static_cast<int>(seg.pixels.size()) < 2 * o.min_pixels) continue;
     // The concavity's depth in pixels at the segment's mean distance along the camera's axis.
-    double z = 0;
-    for (const Vec3& p : seg.points) z += (T_camera_world * p).z();
-    z /= static_cast<double>(seg.points.size());
+    const double z = meanDepth(seg, T_camera_world);
     if (!(z > 0)) continue;
     const double depth_px = o.waist_depth * cam.fx / z;
     const std::vector<int> mask = segmentMasks(frame, {seg}).front();
@@ -454,9 +489,7 @@ void splitAtBridges(const Frame& frame, std::vector<Segment>& segments, const Se
     Segment& seg = segments[s];
     const size_t m = seg.pixels.size();
     if (static_cast<int>(m) < 2 * o.min_pixels) continue;
-    double z = 0;
-    for (const Vec3& p : seg.points) z += (T_camera_world * p).z();
-    z /= static_cast<double>(m);
+    const double z = meanDepth(seg, T_camera_world);
     if (!(z > 0)) continue;
     const double px_per_m = cam.fx / z;
     const int r = std::max(1, static_cast<int>(std::lround(o.bridge_width / 2 * px_per_m)));
@@ -477,28 +510,29 @@ void splitAtBridges(const Frame& frame, std::vector<Segment>& segments, const Se
           for (int dx = std::abs(dy) - r; dx <= r - std::abs(dy) && all; ++dx) all = in[static_cast<size_t>((y + dy) * bw + x + dx)];
         core[static_cast<size_t>(y * bw + x)] = all;
       }
-    // The cores' components, in the box's order; those large enough numbered as parts.
-    std::vector<int> part(cells, -1), comp(cells, -1);
+    // The cores' components, in the box's order; those large enough numbered as parts (a smaller
+    // one's pixels marked kSeen: below 0, as every pixel of no part).
+    constexpr int kSeen = -2;
+    std::vector<int> part(cells, -1);
     std::vector<size_t> queue;
-    int parts = 0, comps = 0;
+    int parts = 0;
     for (size_t i = 0; i < cells; ++i) {
-      if (!core[i] || comp[i] >= 0) continue;
+      if (!core[i] || part[i] != -1) continue;
       const size_t first = queue.size();
-      comp[i] = comps, queue.push_back(i);
+      part[i] = parts, queue.push_back(i);
       for (size_t k = first; k < queue.size(); ++k) {
         const int x = static_cast<int>(queue[k] % static_cast<size_t>(bw)), y = static_cast<int>(queue[k] / static_cast<size_t>(bw));
         for (const auto& [dx, dy] : kSides) {
           const size_t q = static_cast<size_t>((y + dy) * bw + x + dx);  // within the box: a core is 2r inside it
-          if (core[q] && comp[q] < 0) comp[q] = comps, queue.push_back(q);
+          if (core[q] && part[q] == -1) part[q] = parts, queue.push_back(q);
         }
       }
       if (static_cast<double>(queue.size() - first) >= min_core) {
-        for (size_t k = first; k < queue.size(); ++k) part[queue[k]] = parts;
         ++parts;
       } else {
+        for (size_t k = first; k < queue.size(); ++k) part[queue[k]] = kSeen;
         queue.resize(first);
       }
-      ++comps;
     }
     if (parts < 2) continue;
     // Every pixel to the nearest core through the segment's pixels.
@@ -781,6 +815,9 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
     joinWithinObjectSize(segments, near, T_region_world, o.max_object_length, o.max_object_width);
     if (o.crumb_pixels > 0)
       joinWithinObjectSize(segments, near, T_region_world, o.max_object_length, o.max_object_width, o.crumb_pixels, o.crumb_aspect);
+    if (o.smooth_step > 0)
+      joinWithinObjectSize(segments, near, T_region_world, o.max_object_length, o.max_object_width, 0, 0, &frame, o.smooth_step,
+                           o.smooth_share, o.smooth_pairs);
     if (o.waist_depth > 0) splitAtWaists(frame, segments, o, T_region_world);
     if (o.bridge_width > 0) splitAtBridges(frame, segments, o, T_region_world);
   }

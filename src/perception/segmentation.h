@@ -75,6 +75,17 @@ struct SegmentationOptions {
   /// objects' size limits; 0: never.
   int crumb_pixels = 100;
   double crumb_aspect = 1.6;
+  /// [m] Two neighbouring segments the joins above left apart, whose border in the image is
+  /// smooth: of the pixel pairs where their pixels touch (4-neighbours), at least `smooth_pairs`
+  /// and at least `smooth_share` of them differ in depth by at most this. One surface that LCCP
+  /// cut where it turns concave (a bar at its bend) is smooth across the cut; two objects side by
+  /// side are mostly parted by a step in depth or a line of no depth. They join when their points
+  /// together fit max_object_length by max_object_width in some turn (as the crumbs'), the pair of
+  /// the shortest union first. After the join of crumbs, before the cut at a waist; only with the
+  /// objects' size limits; 0: never.
+  double smooth_step = 0.004;
+  double smooth_share = 0.3;
+  int smooth_pairs = 4;
   /// [m] A segment whose outline seen in the image (its instance mask) has two concavities at
   /// least this deep (OpenCV's convexity defects, converted to pixels at the segment's depth) is
   /// cut along the line between their deepest points, when that line is short: under
