@@ -390,12 +390,14 @@ double meanDepth(const Segment& seg, const Pose& T_camera_world) {
 // A segment that holds two objects side by side (LCCP took the valley between them for convex, or
 // the join by size put them together) often shows it in its outline: seen from above, each solid
 // is convex, and where they touch the outline narrows to a waist between two concavities. Each
-// segment of at least twice min_pixels: its instance mask's outer contour, its convex hull's
-// defects at least `depth_px` deep (OpenCV), and of every pair of their deepest points the line
-// between them that parts the segment's pixels into two of at least min_pixels each, the one
-// shortest against the square root of its smaller part (the waist of two blobs, not a cut
-// across one); kept under `ratio`. The segment is cut along that line: its pixels (each with its
-// point) by their side of it; the second part is added after the others, not cut again.
+// segment of at least twice min_pixels whose instance mask fills at least waist_fill of the pixels
+// its outer contour encloses (a speckled mask's ragged outline has notches as deep as a waist):
+// that contour, its convex hull's defects at least `depth_px` deep (OpenCV), and of every pair of
+// their deepest points the line between them that parts the segment's pixels into two of at least
+// min_pixels each, the one shortest against the square root of its smaller part (the waist of two
+// blobs, not a cut across one); kept under `ratio`. The segment is cut along that line: its pixels
+// (each with its point) by their side of it; the second part is added after the others, not cut
+// again.
 // OpenCV's contour and hull functions run on this thread.
 void splitAtWaists(const Frame& frame, std::vector<Segment>& segments, const SegmentationOptions& o, const Pose& T_region_world) {
   const CameraModel& cam = frame.camera;
@@ -422,6 +424,12 @@ void splitAtWaists(const Frame& frame, std::vector<Segment>& segments, const Seg
       if (contours[k].size() > contours[outer].size()) outer = k;
     const std::vector<cv::Point>& contour = contours[outer];
     if (contour.size() < 8) continue;
+    if (o.waist_fill > 0) {  // the mask's share of the pixels its outline encloses
+      cv::Mat inside = cv::Mat::zeros(image.size(), CV_8U);
+      cv::drawContours(inside, contours, static_cast<int>(outer), cv::Scalar(255), cv::FILLED);
+      const int enclosed = cv::countNonZero(inside);
+      if (cv::countNonZero(image & inside) < o.waist_fill * enclosed) continue;
+    }
     std::vector<int> hull;
     cv::convexHull(contour, hull, false, false);
     if (hull.size() < 4) continue;

@@ -95,6 +95,11 @@ struct SegmentationOptions {
   /// max_object_width), after the join by size; 0: never.
   double waist_depth = 0.01;
   double waist_ratio = 0.6;
+  /// A segment whose mask fills less than this share of the pixels its outline encloses is not
+  /// cut at a waist: a speckled mask (a hollow object's wall seen through the sensor's dropout,
+  /// the floor's depth among its pixels) has a ragged outline whose notches are as deep as a
+  /// waist, where two solids side by side fill theirs (0: every segment is read).
+  double waist_fill = 0.98;
   /// [m] Two objects side by side whose pixels the camera parts by a line of no depth (where their
   /// tops meet) all but for a narrow bridge stay one segment, and the join by size keeps two small
   /// ones together. A segment whose own pixels, eroded by half this width (a 4-neighbour diamond,
