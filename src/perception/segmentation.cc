@@ -292,6 +292,8 @@ void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<i
     if (bi < 0) return;
     const size_t a = static_cast<size_t>(bi), b = static_cast<size_t>(bj);
     // b into a: the pixels kept ascending, each with its point.
+    if (frame)
+      for (int p : segments[b].pixels) owner[static_cast<size_t>(p)] = bi;
     std::vector<std::pair<int, Vec3>> merged;
     for (size_t s : {a, b})
       for (size_t k = 0; k < segments[s].pixels.size(); ++k) merged.emplace_back(segments[s].pixels[k], segments[s].points[k]);
@@ -301,8 +303,6 @@ void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<i
     for (const auto& [pixel, point] : merged) joined.pixels.push_back(pixel), joined.points.push_back(point);
     segments[a] = std::move(joined);
     segments[b] = Segment{};
-    if (frame)
-      for (int p : segments[a].pixels) owner[static_cast<size_t>(p)] = bi;
     xy[a].insert(xy[a].end(), xy[b].begin(), xy[b].end());
     xy[b].clear();
     for (auto it = fit.begin(); it != fit.end();)
@@ -395,9 +395,11 @@ double meanDepth(const Segment& seg, const Pose& T_camera_world) {
 // that contour, its convex hull's defects at least `depth_px` deep (OpenCV), and of every pair of
 // their deepest points the line between them that parts the segment's pixels into two of at least
 // min_pixels each, the one shortest against the square root of its smaller part (the waist of two
-// blobs, not a cut across one); kept under `ratio`. The segment is cut along that line: its pixels
-// (each with its point) by their side of it; the second part is added after the others, not cut
-// again.
+// blobs, not a cut across one); kept under `ratio`. With waist_smooth, that cut is not made where
+// the pixel pairs across it are smooth in depth as the smooth join reads a border (smooth_step,
+// smooth_share, smooth_pairs): one surface narrowing, a bent bar at its bend, not two objects side
+// by side. The segment is cut along that line: its pixels (each with its point) by their side of
+// it; the second part is added after the others, not cut again.
 // OpenCV's contour and hull functions run on this thread.
 void splitAtWaists(const Frame& frame, std::vector<Segment>& segments, const SegmentationOptions& o, const Pose& T_region_world) {
   const CameraModel& cam = frame.camera;
@@ -424,12 +426,6 @@ void splitAtWaists(const Frame& frame, std::vector<Segment>& segments, const Seg
       if (contours[k].size() > contours[outer].size()) outer = k;
     const std::vector<cv::Point>& contour = contours[outer];
     if (contour.size() < 8) continue;
-    if (o.waist_fill > 0) {  // the mask's share of the pixels its outline encloses
-      cv::Mat inside = cv::Mat::zeros(image.size(), CV_8U);
-      cv::drawContours(inside, contours, static_cast<int>(outer), cv::Scalar(255), cv::FILLED);
-      const int enclosed = cv::countNonZero(inside);
-      if (cv::countNonZero(image & inside) < o.waist_fill * enclosed) continue;
-    }
     std::vector<int> hull;
     cv::convexHull(contour, hull, false, false);
     if (hull.size() < 4) continue;
@@ -444,6 +440,12 @@ void splitAtWaists(const Frame& frame, std::vector<Segment>& segments, const Seg
     for (const cv::Vec4i& d : defects)
       if (d[3] / 256.0 >= depth_px) deepest.push_back(contour[static_cast<size_t>(d[2])]);
     if (deepest.size() < 2) continue;
+    if (o.waist_fill > 0) {  // the mask's share of the pixels its outline encloses
+      cv::Mat inside = cv::Mat::zeros(image.size(), CV_8U);
+      cv::drawContours(inside, contours, static_cast<int>(outer), cv::Scalar(255), cv::FILLED);
+      const int enclosed = cv::countNonZero(inside);
+      if (cv::countNonZero(image & inside) < o.waist_fill * enclosed) continue;
+    }
     // Which side of the line a -> b a pixel is on (in the image's frame of the contour).
     auto side = [&](int p, const cv::Point& a, const cv::Point& b) {
       const long x = p % w - u0 + 1 - a.x, y = p / w - v0 + 1 - a.y;
@@ -463,9 +465,31 @@ void splitAtWaists(const Frame& frame, std::vector<Segment>& segments, const Seg
         if (ratio < best) best = ratio, bi = static_cast<int>(i), bj = static_cast<int>(j);
       }
     if (bi < 0) continue;
+    const cv::Point& a = deepest[static_cast<size_t>(bi)];
+    const cv::Point& b = deepest[static_cast<size_t>(bj)];
+    if (o.waist_smooth && o.smooth_step > 0) {
+      // Each pixel's side (1, 2; 0: not the segment's) over the mask's rectangle with its margin;
+      // the pixel pairs (4-neighbours) across the cut, and those of them smooth in depth.
+      const int rw = image.cols, rh = image.rows;
+      std::vector<unsigned char> part(static_cast<size_t>(rw * rh), 0);
+      auto cell = [&](int u, int v) { return static_cast<size_t>((v - v0 + 1) * rw + (u - u0 + 1)); };
+      for (int p : seg.pixels) part[cell(p % w, p / w)] = side(p, a, b) ? 1 : 2;
+      int touch = 0, smooth = 0;
+      for (int p : seg.pixels) {
+        const int u = p % w, v = p / w;
+        if (part[cell(u, v)] != 1) continue;
+        for (const auto& [du, dv] : {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
+          // The rectangle has a pixel of margin all round: every neighbour of a pixel of it is in it.
+          if (part[cell(u + du, v + dv)] != 2) continue;
+          ++touch;
+          smooth += std::abs(frame.depth[static_cast<size_t>(p)] - frame.depth[static_cast<size_t>(p + dv * w + du)]) <= o.smooth_step;
+        }
+      }
+      if (smooth >= o.smooth_pairs && smooth >= o.smooth_share * touch) continue;
+    }
     Segment one, two;
     for (size_t k = 0; k < seg.pixels.size(); ++k) {
-      Segment& to = side(seg.pixels[k], deepest[static_cast<size_t>(bi)], deepest[static_cast<size_t>(bj)]) ? one : two;
+      Segment& to = side(seg.pixels[k], a, b) ? one : two;
       to.pixels.push_back(seg.pixels[k]);
       to.points.push_back(seg.points[k]);
       to.top = std::max(to.top, (T_region_world * seg.points[k]).z());

@@ -11,8 +11,8 @@
 //   measured no depth between them) cut into its pieces -> neighbouring segments joined while
 //   their points together fit what an object can measure seen from above -> a small elongated
 //   segment left (a piece of an object) joined to a neighbour it fits with in some turn -> a
-//   segment whose outline narrows to a waist between two deep concavities cut there -> segments,
-//   each the pixels of its points.
+//   segment whose outline narrows to a waist between two deep concavities cut there, unless the
+//   depth is smooth across the cut -> segments, each the pixels of its points.
 // Reads only the frame's depth and its camera (the extrinsics as calibrated) and the bin's known
 // geometry. Every PCL call runs on this thread; the same image gives the same segments.
 // SegmentationOptions::method picks instead region growing or clustering with normals, the
@@ -100,6 +100,11 @@ struct SegmentationOptions {
   /// the floor's depth among its pixels) has a ragged outline whose notches are as deep as a
   /// waist, where two solids side by side fill theirs (0: every segment is read).
   double waist_fill = 0.98;
+  /// A waist whose pixel pairs across the cut are smooth in depth as the smooth join reads a
+  /// border (smooth_step, smooth_share, smooth_pairs; not read when smooth_step is 0) is not cut: one
+  /// surface narrowing (a bent bar at its bend), where two objects side by side are parted by a
+  /// step in depth or a line of no depth.
+  bool waist_smooth = true;
   /// [m] Two objects side by side whose pixels the camera parts by a line of no depth (where their
   /// tops meet) all but for a narrow bridge stay one segment, and the join by size keeps two small
   /// ones together. A segment whose own pixels, eroded by half this width (a 4-neighbour diamond,

@@ -64,7 +64,7 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
                std::optional<double> object_length = {}, std::optional<double> recut = {}, std::optional<double> object_width = {},
                std::optional<double> waist = {}, NoiseSampler sampler = NoiseSampler::kZiggurat, std::optional<bool> split = {},
                std::optional<int> crumb = {}, std::optional<double> bridge = {}, std::optional<double> smooth = {},
-               std::optional<double> waist_fill = {}) {
+               std::optional<double> waist_fill = {}, std::optional<bool> waist_smooth = {}) {
   const auto [T_bin, half] = w.site("bin_region");
   SpawnOptions so;
   so.generated.grades = shapeGrades();
@@ -118,6 +118,7 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
   if (const char* e = std::getenv("MM_WAIST")) o.waist_depth = std::atof(e);  // 0: no cut at a waist
   if (const char* e = std::getenv("MM_WAIST_RATIO")) o.waist_ratio = std::atof(e);
   if (const char* e = std::getenv("MM_WAIST_FILL")) o.waist_fill = std::atof(e);  // 0: every segment's outline read
+  if (const char* e = std::getenv("MM_WAIST_SMOOTH")) o.waist_smooth = std::atoi(e) != 0;  // 0: a waist smooth in depth cut all the same
   if (const char* e = std::getenv("MM_SPLIT")) o.split_unconnected = std::atoi(e) != 0;  // 0: no cut of a segment whose pixels fall apart
   if (const char* e = std::getenv("MM_CRUMB")) o.crumb_pixels = std::atoi(e);  // 0: no join of a small elongated segment left
   if (const char* e = std::getenv("MM_SMOOTH")) o.smooth_step = std::atof(e);  // 0: no join along a smooth border
@@ -134,6 +135,7 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
   if (bridge) o.bridge_width = *bridge;
   if (smooth) o.smooth_step = *smooth;
   if (waist_fill) o.waist_fill = *waist_fill;
+  if (waist_smooth) o.waist_smooth = *waist_smooth;
   if (method) o.method = *method;
   if (const char* e = std::getenv("MM_SANITY_JOIN")) o.sanity_join = std::atof(e);  // 0: LCCP's segments as they are
   if (sanity_join) o.sanity_join = *sanity_join;
@@ -436,16 +438,33 @@ TEST(PileSegmentation, ASegmentOfTwoSolidsSideBySideIsCutAtTheWaistBetweenThem) 
 // mask is ragged, and two of its notches, a few pixels apart, are as deep as a waist (1 cm): cut
 // there, the object is two halves of 129 and 125 pixels, neither found (IoU 0.32 and 0.33), both
 // false. The mask fills 0.81 of the pixels its outline encloses (two solids side by side, as in
-// seed 1's pile 1 above, fill theirs: 0.996), under waist_fill: no cut, one segment, found.
+// seed 1's pile 1 above, fill theirs: 0.996), under waist_fill: no cut, one segment, found. (The
+// cut's line is smooth in depth too, which waist_smooth reads: off here, to show the fill alone.)
 TEST(PileSegmentation, ASpeckledMasksNotchesAreNoWaist) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score cut, whole;
-  scorePile(*w, 5, 11, 640, 480, cut, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, {}, {}, 0.0);
+  scorePile(*w, 5, 11, 640, 480, cut, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, {}, {}, 0.0, false);
   scorePile(*w, 5, 11, 640, 480, whole, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, {}, {},
-            SegmentationOptions{}.waist_fill);
+            SegmentationOptions{}.waist_fill, false);
   EXPECT_EQ(whole.grades["hollow"].found, cut.grades["hollow"].found + 1);
   EXPECT_EQ(whole.segments, cut.segments - 1);
   EXPECT_EQ(whole.false_segments, cut.false_segments - 2);
+}
+
+// Seed 1's pile 13: a bent bar lying with its bend up, seen as a V. The joins make it one
+// segment, but its outline narrows at the bend between two concavities, a waist, and the cut there
+// leaves a piece of 118 pixels, a false segment (the other piece is still matched to the bar).
+// Across that cut the depth is smooth (the pixel pairs where the pieces touch are within
+// smooth_step of each other's depth, as the smooth join reads a border): one surface narrowing, not
+// two objects side by side. Not cut, the bar is one segment, found, and the false segment is gone.
+TEST(PileSegmentation, AWaistSmoothInDepthIsNotCut) {
+  auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
+  Score cut, whole;
+  scorePile(*w, 1, 13, 640, 480, cut, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, {}, {}, {}, false);
+  scorePile(*w, 1, 13, 640, 480, whole, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, {}, {}, {}, true);
+  EXPECT_EQ(whole.grades["bent"].found, cut.grades["bent"].found);
+  EXPECT_EQ(whole.segments, cut.segments - 1);
+  EXPECT_EQ(whole.false_segments, cut.false_segments - 1);
 }
 
 // Seed 1's pile 13: two small convex solids side by side (128 and about 130 pixels), their tops
@@ -487,12 +506,14 @@ TEST(PileSegmentation, PiecesOfOneSurfaceCutAtItsBendAreJoinedAcrossTheirSmoothB
 // 185 and 60 pixels; neither object found, both segments false). Each one's pixels fall apart
 // along that line; cut into their pieces, which the join by size puts together again object by
 // object, the two segments are the two objects, both found. (No join of small elongated pieces
-// left, which would put the smaller segment into the larger.)
+// left, which would put the smaller segment into the larger; and every waist cut, smooth in depth
+// or not, as when this was found: with waist_smooth, the segments without this cut hold a waist
+// smooth in depth, left uncut, one segment and one false segment fewer.)
 TEST(PileSegmentation, ASegmentWhosePixelsFallApartInTheImageIsCutIntoItsPieces) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score whole, cut;
-  scorePile(*w, 1, 37, 640, 480, whole, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, false, 0);
-  scorePile(*w, 1, 37, 640, 480, cut, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, true, 0);
+  scorePile(*w, 1, 37, 640, 480, whole, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, false, 0, {}, {}, {}, false);
+  scorePile(*w, 1, 37, 640, 480, cut, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, true, 0, {}, {}, {}, false);
   EXPECT_EQ(cut.grades["convex"].found, whole.grades["convex"].found + 1);
   EXPECT_EQ(cut.grades["blend"].found, whole.grades["blend"].found + 1);
   EXPECT_EQ(cut.false_segments, whole.false_segments - 2);
