@@ -202,6 +202,38 @@ void recutOversized(const std::map<std::uint32_t, pcl::Supervoxel<pcl::PointXYZ>
   }
 }
 
+// A pixel's four neighbours in the image (du, dv).
+constexpr std::array<std::pair<int, int>, 4> kSides{{{1, 0}, {-1, 0}, {0, 1}, {0, -1}}};
+
+// The pixel pairs (4-neighbours) across a border in the image: from one of `pixels` whose side is
+// `from` to a neighbour whose side is `to` (side: pixel index -> an int), how many (touch) and how
+// many of them within `step` of each other's depth (smooth).
+struct BorderPairs {
+  int touch = 0, smooth = 0;
+};
+
+template <class Side>
+BorderPairs pairsAcross(const Frame& frame, const std::vector<int>& pixels, const Side& side, int from, int to, double step) {
+  const int w = frame.camera.width, h = frame.camera.height;
+  BorderPairs b;
+  for (int p : pixels) {
+    if (side(p) != from) continue;
+    const int u = p % w, v = p / w;
+    for (const auto& [du, dv] : kSides) {
+      if (u + du < 0 || v + dv < 0 || u + du >= w || v + dv >= h) continue;
+      const int q = p + dv * w + du;
+      if (side(q) != to) continue;
+      ++b.touch;
+      b.smooth += std::abs(frame.depth[static_cast<size_t>(p)] - frame.depth[static_cast<size_t>(q)]) <= step;
+    }
+  }
+  return b;
+}
+
+// A border smooth in depth (SegmentationOptions::smooth_step): at least `pairs` and at least
+// `share` of its pixel pairs smooth.
+bool smoothBorder(const BorderPairs& b, double share, int pairs) { return b.smooth >= pairs && b.smooth >= share * b.touch; }
+
 // Points seen from above fit max_length by max_width in some turn: the longer side of the
 // smallest such box over 1-degree turns (INFINITY: none fits).
 double fitInSomeTurn(const std::vector<Vec2>& a, const std::vector<Vec2>& b, double max_length, double max_width) {
@@ -239,20 +271,10 @@ void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<i
     for (size_t i = 0; i < n; ++i)
       for (int p : segments[i].pixels) owner[static_cast<size_t>(p)] = static_cast<int>(i);
   }
-  auto smoothBorder = [&](size_t i, size_t j) {
-    const int w = frame->camera.width, h = frame->camera.height;
-    int touch = 0, smooth = 0;
-    for (int p : segments[i].pixels) {
-      const int u = p % w, v = p / w;
-      for (const auto& [du, dv] : {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
-        if (u + du < 0 || v + dv < 0 || u + du >= w || v + dv >= h) continue;
-        const int q = p + dv * w + du;
-        if (owner[static_cast<size_t>(q)] != static_cast<int>(j)) continue;
-        ++touch;
-        smooth += std::abs(frame->depth[static_cast<size_t>(p)] - frame->depth[static_cast<size_t>(q)]) <= smooth_step;
-      }
-    }
-    return smooth >= smooth_pairs && smooth >= smooth_share * touch;
+  auto smoothJoin = [&](size_t i, size_t j) {
+    const auto owned = [&](int p) { return owner[static_cast<size_t>(p)]; };
+    return smoothBorder(pairsAcross(*frame, segments[i].pixels, owned, static_cast<int>(i), static_cast<int>(j), smooth_step), smooth_share,
+                        smooth_pairs);
   };
   std::vector<std::vector<Vec2>> xy(n);
   for (size_t i = 0; i < n; ++i)
@@ -277,7 +299,7 @@ void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<i
         if (it == fit.end()) {
           double length = INFINITY;
           if (frame) {
-            if (smoothBorder(i, uj)) length = fitInSomeTurn(xy[i], xy[uj], max_length, max_width);
+            if (smoothJoin(i, uj)) length = fitInSomeTurn(xy[i], xy[uj], max_length, max_width);
           } else if (crumb_pixels <= 0) {
             const auto [l, w] = extentsFromAbove(xy[i], xy[uj]);
             if (l <= max_length && w <= max_width) length = l;
@@ -468,24 +490,14 @@ void splitAtWaists(const Frame& frame, std::vector<Segment>& segments, const Seg
     const cv::Point& a = deepest[static_cast<size_t>(bi)];
     const cv::Point& b = deepest[static_cast<size_t>(bj)];
     if (o.waist_smooth && o.smooth_step > 0) {
-      // Each pixel's side (1, 2; 0: not the segment's) over the mask's rectangle with its margin;
-      // the pixel pairs (4-neighbours) across the cut, and those of them smooth in depth.
-      const int rw = image.cols, rh = image.rows;
-      std::vector<unsigned char> part(static_cast<size_t>(rw * rh), 0);
-      auto cell = [&](int u, int v) { return static_cast<size_t>((v - v0 + 1) * rw + (u - u0 + 1)); };
-      for (int p : seg.pixels) part[cell(p % w, p / w)] = side(p, a, b) ? 1 : 2;
-      int touch = 0, smooth = 0;
-      for (int p : seg.pixels) {
-        const int u = p % w, v = p / w;
-        if (part[cell(u, v)] != 1) continue;
-        for (const auto& [du, dv] : {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
-          // The rectangle has a pixel of margin all round: every neighbour of a pixel of it is in it.
-          if (part[cell(u + du, v + dv)] != 2) continue;
-          ++touch;
-          smooth += std::abs(frame.depth[static_cast<size_t>(p)] - frame.depth[static_cast<size_t>(p + dv * w + du)]) <= o.smooth_step;
-        }
-      }
-      if (smooth >= o.smooth_pairs && smooth >= o.smooth_share * touch) continue;
+      // Each pixel's side (1, 2; 0: not the segment's) over the mask's rectangle with its margin
+      // (every neighbour in the image of a pixel of the rectangle is in it).
+      const int rw = image.cols;
+      std::vector<unsigned char> part(static_cast<size_t>(rw * image.rows), 0);
+      auto cell = [&](int p) { return static_cast<size_t>((p / w - v0 + 1) * rw + (p % w - u0 + 1)); };
+      for (int p : seg.pixels) part[cell(p)] = side(p, a, b) ? 1 : 2;
+      const auto partOf = [&](int p) { return static_cast<int>(part[cell(p)]); };
+      if (smoothBorder(pairsAcross(frame, seg.pixels, partOf, 1, 2, o.smooth_step), o.smooth_share, o.smooth_pairs)) continue;
     }
     Segment one, two;
     for (size_t k = 0; k < seg.pixels.size(); ++k) {
@@ -516,7 +528,6 @@ void splitAtBridges(const Frame& frame, std::vector<Segment>& segments, const Se
   const int w = cam.width, h = cam.height;
   const Pose T_camera_world = cam.T_world_camera.inverse();
   const size_t n = segments.size();
-  constexpr std::array<std::pair<int, int>, 4> kSides{{{1, 0}, {-1, 0}, {0, 1}, {0, -1}}};
   for (size_t s = 0; s < n; ++s) {
     Segment& seg = segments[s];
     const size_t m = seg.pixels.size();
