@@ -630,15 +630,22 @@ void splitAtBridges(const Frame& frame, std::vector<Segment>& segments, const Se
   }
 }
 
-// The segments as objects (min_pixels or more), as pieces too small to be objects but rising above
-// the floor's noise (Segmentation::small), or dropped; each list by its first pixel.
-void keepSegments(std::vector<Segment>& segments, const SegmentationOptions& o, Segmentation& out) {
+// The segments as objects (min_pixels or more, covering min_area or more), as pieces too small to
+// be objects but rising above the floor's noise (Segmentation::small), or dropped; each list by
+// its first pixel.
+void keepSegments(std::vector<Segment>& segments, const SegmentationOptions& o, const CameraModel& cam, Segmentation& out) {
+  const Pose T_camera_world = cam.T_world_camera.inverse();
   for (Segment& s : segments) {
     const int size = static_cast<int>(s.pixels.size());
     if (size == 0 || size < o.min_obstacle_pixels) continue;  // merged away, or the depth's noise
     for (const Vec3& p : s.points) s.centroid += p;
     s.centroid /= static_cast<double>(s.points.size());
-    if (size >= o.min_pixels)
+    double area = 0;  // each pixel's footprint at its point's depth along the camera's axis
+    for (const Vec3& p : s.points) {
+      const double z = (T_camera_world * p).z();
+      area += (z / cam.fx) * (z / cam.fy);
+    }
+    if (size >= o.min_pixels && area >= o.min_area)
       out.segments.push_back(std::move(s));
     else if (s.top >= o.min_obstacle_height)
       out.small.push_back(std::move(s));
@@ -732,7 +739,7 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
       std::sort(idx.begin(), idx.end());  // pixel_of ascends with the index
       for (int k : idx) addPoint(segments[c], static_cast<size_t>(k));
     }
-    keepSegments(segments, o, out);
+    keepSegments(segments, o, cam, out);
     out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return out;
   }
@@ -864,7 +871,7 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
     if (o.waist_depth > 0) splitAtWaists(frame, segments, o, T_region_world);
     if (o.bridge_width > 0) splitAtBridges(frame, segments, o, T_region_world);
   }
-  keepSegments(segments, o, out);
+  keepSegments(segments, o, cam, out);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }
@@ -893,7 +900,7 @@ Segmentation segmentLabels(const Frame& frame, const SegmentationOptions& o) {
     }
   std::vector<Segment> segments;
   for (auto& [label, s] : by_label) segments.push_back(std::move(s));
-  keepSegments(segments, o, out);
+  keepSegments(segments, o, cam, out);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }

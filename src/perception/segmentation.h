@@ -125,7 +125,12 @@ struct SegmentationOptions {
   int cluster_neighbours = 64;         ///< clustering: the nearest points a normal is fitted to
   double cluster_angle = 25.0;         ///< [deg] clustering: neighbours join while their normals are this close ...
   double cluster_tolerance = 0.0055;   ///< [m] ... and they are this close
-  int min_pixels = 30;                 ///< segments of fewer pixels are no object (Segmentation::small) ...
+  int min_pixels = 30;                 ///< segments of fewer pixels, ...
+  /// [m^2] ... or whose pixels cover less than this at their points' depths (a pixel's footprint
+  /// across the camera's axis, z/fx by z/fy), are no object (Segmentation::small) ... Over the
+  /// bin seen from 1.25 m, 34 pixels at 640 x 480 and 136 at 1280 x 960 (where min_pixels alone
+  /// is 2.2 and 0.55 cm^2): the same size at any resolution.
+  double min_area = 2.5e-4;
   int min_obstacle_pixels = 8;         ///< ... and of fewer than this, or whose top is ...
   double min_obstacle_height = 0.012;  ///< [m] ... lower than this above the floor, the depth's noise (dropped)
 };
