@@ -265,14 +265,22 @@ void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<i
                           double max_length, double max_width, int crumb_pixels = 0, double crumb_aspect = 0,
                           const Frame* frame = nullptr, double smooth_step = 0, double smooth_share = 0, int smooth_pairs = 0) {
   const size_t n = segments.size();
-  std::vector<int> owner;  // with `frame`: each pixel's segment (-1: none)
+  // With `frame`: each pixel's segment (-1: none) over the segments' bounding rectangle (every
+  // pixel outside it is none's).
+  const int cols = frame ? frame->camera.width : 0;
+  int u0 = cols, v0 = std::numeric_limits<int>::max(), u1 = -1, v1 = -1;
+  std::vector<int> owner;
   if (frame) {
-    owner.assign(frame->depth.size(), -1);
-    for (size_t i = 0; i < n; ++i)
-      for (int p : segments[i].pixels) owner[static_cast<size_t>(p)] = static_cast<int>(i);
+    for (const Segment& s : segments)
+      for (int p : s.pixels) u0 = std::min(u0, p % cols), u1 = std::max(u1, p % cols), v0 = std::min(v0, p / cols), v1 = std::max(v1, p / cols);
+    if (u1 >= u0) owner.assign(static_cast<size_t>(u1 - u0 + 1) * static_cast<size_t>(v1 - v0 + 1), -1);
   }
+  const auto cellOf = [&](int p) { return static_cast<size_t>((p / cols - v0) * (u1 - u0 + 1) + (p % cols - u0)); };
+  const auto inRect = [&](int p) { return p % cols >= u0 && p % cols <= u1 && p / cols >= v0 && p / cols <= v1; };
+  for (size_t i = 0; i < n && frame; ++i)
+    for (int p : segments[i].pixels) owner[cellOf(p)] = static_cast<int>(i);
   auto smoothJoin = [&](size_t i, size_t j) {
-    const auto owned = [&](int p) { return owner[static_cast<size_t>(p)]; };
+    const auto owned = [&](int p) { return inRect(p) ? owner[cellOf(p)] : -1; };
     return smoothBorder(pairsAcross(*frame, segments[i].pixels, owned, static_cast<int>(i), static_cast<int>(j), smooth_step), smooth_share,
                         smooth_pairs);
   };
@@ -315,7 +323,7 @@ void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<i
     const size_t a = static_cast<size_t>(bi), b = static_cast<size_t>(bj);
     // b into a: the pixels kept ascending, each with its point.
     if (frame)
-      for (int p : segments[b].pixels) owner[static_cast<size_t>(p)] = bi;
+      for (int p : segments[b].pixels) owner[cellOf(p)] = bi;
     std::vector<std::pair<int, Vec3>> merged;
     for (size_t s : {a, b})
       for (size_t k = 0; k < segments[s].pixels.size(); ++k) merged.emplace_back(segments[s].pixels[k], segments[s].points[k]);
@@ -641,10 +649,11 @@ void keepSegments(std::vector<Segment>& segments, const SegmentationOptions& o, 
     for (const Vec3& p : s.points) s.centroid += p;
     s.centroid /= static_cast<double>(s.points.size());
     double area = 0;  // each pixel's footprint at its point's depth along the camera's axis
-    for (const Vec3& p : s.points) {
-      const double z = (T_camera_world * p).z();
-      area += (z / cam.fx) * (z / cam.fy);
-    }
+    if (size >= o.min_pixels)
+      for (const Vec3& p : s.points) {
+        const double z = (T_camera_world * p).z();
+        area += (z / cam.fx) * (z / cam.fy);
+      }
     if (size >= o.min_pixels && area >= o.min_area)
       out.segments.push_back(std::move(s));
     else if (s.top >= o.min_obstacle_height)
