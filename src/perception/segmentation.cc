@@ -648,13 +648,16 @@ void keepSegments(std::vector<Segment>& segments, const SegmentationOptions& o, 
     if (size == 0 || size < o.min_obstacle_pixels) continue;  // merged away, or the depth's noise
     for (const Vec3& p : s.points) s.centroid += p;
     s.centroid /= static_cast<double>(s.points.size());
-    double area = 0;  // each pixel's footprint at its point's depth along the camera's axis
-    if (size >= o.min_pixels)
+    bool object = size >= o.min_pixels;
+    if (object) {
+      double area = 0;  // each pixel's footprint at its point's depth along the camera's axis
       for (const Vec3& p : s.points) {
         const double z = (T_camera_world * p).z();
         area += (z / cam.fx) * (z / cam.fy);
       }
-    if (size >= o.min_pixels && area >= o.min_area)
+      object = area >= o.min_area;
+    }
+    if (object)
       out.segments.push_back(std::move(s));
     else if (s.top >= o.min_obstacle_height)
       out.small.push_back(std::move(s));
