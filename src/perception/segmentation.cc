@@ -256,13 +256,14 @@ double fitInSomeTurn(const std::vector<Vec2>& a, const std::vector<Vec2>& b, dou
 // together fit are joined all the same). The extents are the points' spread along their
 // principal axis and across it.
 // With `crumb_pixels` (SegmentationOptions::crumb_pixels), only pairs of which the smaller is a
-// crumb: fewer pixels than that, its own principal extents at least `crumb_aspect` to one; and
-// the union fits in some turn (fitInSomeTurn), not along its principal axes.
+// crumb: fewer pixels than that, its own principal extents at least `crumb_aspect` to one; the
+// two segments' tops within `crumb_top_step` of each other (where that is above 0); and the union
+// fits in some turn (fitInSomeTurn), not along its principal axes.
 // With `frame` (SegmentationOptions::smooth_step), only pairs whose border in the image is smooth:
 // of the pixel pairs where they touch (4-neighbours), at least `smooth_pairs` and at least
 // `smooth_share` of them differ in depth by at most `smooth_step`; and the union fits in some turn.
 void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<int>>& near, const Pose& T_region_world,
-                          double max_length, double max_width, int crumb_pixels = 0, double crumb_aspect = 0,
+                          double max_length, double max_width, int crumb_pixels = 0, double crumb_aspect = 0, double crumb_top_step = 0,
                           const Frame* frame = nullptr, double smooth_step = 0, double smooth_share = 0, int smooth_pairs = 0) {
   const size_t n = segments.size();
   // With `frame`: each pixel's segment (-1: none) over the segments' bounding rectangle (every
@@ -311,7 +312,8 @@ void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<i
           } else if (crumb_pixels <= 0) {
             const auto [l, w] = extentsFromAbove(xy[i], xy[uj]);
             if (l <= max_length && w <= max_width) length = l;
-          } else if (crumb(segments[i].pixels.size() <= segments[uj].pixels.size() ? i : uj)) {
+          } else if (crumb(segments[i].pixels.size() <= segments[uj].pixels.size() ? i : uj) &&
+                     (crumb_top_step <= 0 || std::abs(segments[i].top - segments[uj].top) <= crumb_top_step)) {
             length = fitInSomeTurn(xy[i], xy[uj], max_length, max_width);
           }
           it = fit.emplace(std::pair{static_cast<int>(i), j}, length).first;
@@ -876,9 +878,10 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
       }
     joinWithinObjectSize(segments, near, T_region_world, o.max_object_length, o.max_object_width);
     if (o.crumb_pixels > 0)
-      joinWithinObjectSize(segments, near, T_region_world, o.max_object_length, o.max_object_width, o.crumb_pixels, o.crumb_aspect);
+      joinWithinObjectSize(segments, near, T_region_world, o.max_object_length, o.max_object_width, o.crumb_pixels, o.crumb_aspect,
+                           o.crumb_top_step);
     if (o.smooth_step > 0)
-      joinWithinObjectSize(segments, near, T_region_world, o.max_object_length, o.max_object_width, 0, 0, &frame, o.smooth_step,
+      joinWithinObjectSize(segments, near, T_region_world, o.max_object_length, o.max_object_width, 0, 0, 0, &frame, o.smooth_step,
                            o.smooth_share, o.smooth_pairs);
     if (o.waist_depth > 0) splitAtWaists(frame, segments, o, T_region_world);
     if (o.bridge_width > 0) splitAtBridges(frame, segments, o, T_region_world);

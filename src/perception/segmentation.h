@@ -75,6 +75,11 @@ struct SegmentationOptions {
   /// objects' size limits; 0: never.
   int crumb_pixels = 100;
   double crumb_aspect = 1.6;
+  /// [m] A crumb joins only a neighbour whose top (its highest point above the floor) is within
+  /// this of the crumb's: a piece of one object lies at about its neighbour piece's height (a
+  /// ring's arc beside the other), a small part of another object seen beside it mostly not (one
+  /// lying lower against its side, or on it); 0: any neighbour.
+  double crumb_top_step = 0.008;
   /// [m] Two neighbouring segments the joins above left apart, whose border in the image is
   /// smooth: of the pixel pairs where their pixels touch (4-neighbours), at least `smooth_pairs`
   /// and at least `smooth_share` of them differ in depth by at most this. One surface that LCCP

@@ -64,7 +64,8 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
                std::optional<double> object_length = {}, std::optional<double> recut = {}, std::optional<double> object_width = {},
                std::optional<double> waist = {}, NoiseSampler sampler = NoiseSampler::kZiggurat, std::optional<bool> split = {},
                std::optional<int> crumb = {}, std::optional<double> bridge = {}, std::optional<double> smooth = {},
-               std::optional<double> waist_fill = {}, std::optional<bool> waist_smooth = {}, std::optional<double> min_area = {}) {
+               std::optional<double> waist_fill = {}, std::optional<bool> waist_smooth = {}, std::optional<double> min_area = {},
+               std::optional<double> crumb_top = {}) {
   const auto [T_bin, half] = w.site("bin_region");
   SpawnOptions so;
   so.generated.grades = shapeGrades();
@@ -121,6 +122,7 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
   if (const char* e = std::getenv("MM_WAIST_SMOOTH")) o.waist_smooth = std::atoi(e) != 0;  // 0: a waist smooth in depth cut all the same
   if (const char* e = std::getenv("MM_SPLIT")) o.split_unconnected = std::atoi(e) != 0;  // 0: no cut of a segment whose pixels fall apart
   if (const char* e = std::getenv("MM_CRUMB")) o.crumb_pixels = std::atoi(e);  // 0: no join of a small elongated segment left
+  if (const char* e = std::getenv("MM_CRUMB_TOP")) o.crumb_top_step = std::atof(e);  // 0: a crumb joins a neighbour at any height
   if (const char* e = std::getenv("MM_SMOOTH")) o.smooth_step = std::atof(e);  // 0: no join along a smooth border
   if (const char* e = std::getenv("MM_SMOOTH_SHARE")) o.smooth_share = std::atof(e);
   if (const char* e = std::getenv("MM_BRIDGE")) o.bridge_width = std::atof(e);  // 0: no cut at a bridge
@@ -138,6 +140,7 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
   if (waist_fill) o.waist_fill = *waist_fill;
   if (waist_smooth) o.waist_smooth = *waist_smooth;
   if (min_area) o.min_area = *min_area;
+  if (crumb_top) o.crumb_top_step = *crumb_top;
   if (method) o.method = *method;
   if (const char* e = std::getenv("MM_SANITY_JOIN")) o.sanity_join = std::atof(e);  // 0: LCCP's segments as they are
   if (sanity_join) o.sanity_join = *sanity_join;
@@ -558,6 +561,21 @@ TEST(PileSegmentation, SmallElongatedPiecesLeftAreJoinedWhereTheyFitAnObjectInSo
   EXPECT_EQ(joined.grades["hollow"].found, apart.grades["hollow"].found + 1);
   EXPECT_EQ(joined.false_segments, apart.false_segments - 3);
   EXPECT_EQ(joined.segments, apart.segments - 2);
+}
+
+// A crumb joins only a neighbour whose top is within crumb_top_step of its own: on seed 1's pile
+// 21, what is seen of a small solid beside a taller object (a segment of 70 pixels,
+// elongated, its top 3.6 cm below the other's) joins that object with any neighbour allowed, and
+// is found as an object of its own with the limit; no segment is false either way.
+TEST(PileSegmentation, ACrumbJoinsOnlyANeighbourAtItsHeight) {
+  auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
+  Score any, near;
+  scorePile(*w, 1, 21, 640, 480, any, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, {}, {}, {}, {}, {}, 0.0);
+  scorePile(*w, 1, 21, 640, 480, near, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, {}, {}, {}, {}, {},
+            SegmentationOptions{}.crumb_top_step);
+  EXPECT_EQ(near.grades["convex"].found, any.grades["convex"].found + 1);
+  EXPECT_EQ(near.false_segments, any.false_segments);
+  EXPECT_EQ(near.segments, any.segments + 1);
 }
 
 // The oracle's segments (perception.segmentation: labels), from the same noisy depth: every object
