@@ -13,8 +13,8 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <map>
-#include <optional>
 
 #include "core/rng.h"
 #include "perception/camera_perception.h"
@@ -58,14 +58,13 @@ struct Score {
   int views = 0;
 };
 
-// `labels`: the oracle's segments (the renderer's labels), else the depth's.
+// A case's change to the options its pile is segmented with, made after the MM_ knobs.
+using Tweak = std::function<void(SegmentationOptions&)>;
+
+// `labels`: the oracle's segments (the renderer's labels), else the depth's. `sampler` draws the
+// depth's noise.
 void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height, Score& score, bool verbose, bool labels,
-               std::optional<SegmentationMethod> method, std::optional<double> sanity_join = {},
-               std::optional<double> object_length = {}, std::optional<double> recut = {}, std::optional<double> object_width = {},
-               std::optional<double> waist = {}, NoiseSampler sampler = NoiseSampler::kZiggurat, std::optional<bool> split = {},
-               std::optional<int> crumb = {}, std::optional<double> bridge = {}, std::optional<double> smooth = {},
-               std::optional<double> waist_fill = {}, std::optional<bool> waist_smooth = {}, std::optional<double> min_area = {},
-               std::optional<double> crumb_top = {}) {
+               const Tweak& tweak = {}, NoiseSampler sampler = NoiseSampler::kZiggurat) {
   const auto [T_bin, half] = w.site("bin_region");
   SpawnOptions so;
   so.generated.grades = shapeGrades();
@@ -129,21 +128,8 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
   if (const char* e = std::getenv("MM_MIN_AREA")) o.min_area = std::atof(e) * 1e-4;  // [cm^2]; 0: min_pixels alone
   if (const char* e = std::getenv("MM_BRIDGE_CORE")) o.bridge_core_area = std::atof(e);
   if (const char* e = std::getenv("MM_BRIDGE_GAP")) o.bridge_gap = std::atof(e);
-  if (object_length) o.max_object_length = *object_length;
-  if (object_width) o.max_object_width = *object_width;
-  if (recut) o.recut_tolerance = *recut;
-  if (waist) o.waist_depth = *waist;
-  if (split) o.split_unconnected = *split;
-  if (crumb) o.crumb_pixels = *crumb;
-  if (bridge) o.bridge_width = *bridge;
-  if (smooth) o.smooth_step = *smooth;
-  if (waist_fill) o.waist_fill = *waist_fill;
-  if (waist_smooth) o.waist_smooth = *waist_smooth;
-  if (min_area) o.min_area = *min_area;
-  if (crumb_top) o.crumb_top_step = *crumb_top;
-  if (method) o.method = *method;
   if (const char* e = std::getenv("MM_SANITY_JOIN")) o.sanity_join = std::atof(e);  // 0: LCCP's segments as they are
-  if (sanity_join) o.sanity_join = *sanity_join;
+  if (tweak) tweak(o);
   auto segment = [&] { return labels ? segmentLabels(frame, o) : segmentDepth(frame, o); };
   const Segmentation seg = segment();
   // The same image, the same segments (PCL on this thread).
@@ -292,12 +278,12 @@ void scorePile(SimWorld& w, uint64_t seed, uint64_t trial, int width, int height
   }
 }
 
-Score scorePiles(int piles, int width, int height, bool verbose, bool labels = false, std::optional<SegmentationMethod> method = {}) {
+Score scorePiles(int piles, int width, int height, bool verbose, bool labels = false, const Tweak& tweak = {}) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score score;
   const char* seed_env = std::getenv("MM_SEED");  // 1 unless given
   const uint64_t seed = seed_env ? std::strtoull(seed_env, nullptr, 10) : 1;
-  for (int t = 0; t < piles; ++t) scorePile(*w, seed, static_cast<uint64_t>(t), width, height, score, verbose, labels, method);
+  for (int t = 0; t < piles; ++t) scorePile(*w, seed, static_cast<uint64_t>(t), width, height, score, verbose, labels, tweak);
   std::printf("%s: %d piles at %dx%d, seed %llu: %d segments, %d false (by the segments' own pixels: %d); %.1f ms a view, the masks %.2f ms\n",
               labels ? "the labels' oracle" : "the depth", piles, width, height, static_cast<unsigned long long>(seed), score.segments, score.false_segments,
               score.false_pixels, 1e3 * score.seconds / std::max(1, score.views), 1e3 * score.mask_seconds / std::max(1, score.views));
@@ -333,8 +319,10 @@ TEST(PileSegmentation, FindsTheVisibleUnknownObjectsOfDroppedPiles) {
 // LCCP on seed 1's piles of the table (there 81.7% and 63.1% of the visible, against 87.9%).
 TEST(PileSegmentation, RegionGrowingAndClusteringWithNormalsRunAndRepeat) {
   const int piles = testing_sanitized::sanitizedOr(1, 2);
-  const Score clusters = scorePiles(piles, 640, 480, false, false, SegmentationMethod::kNormalClusters);
-  const Score grown = scorePiles(piles, 640, 480, false, false, SegmentationMethod::kRegionGrowing);
+  const Score clusters = scorePiles(piles, 640, 480, false, false,
+      [](SegmentationOptions& o) { o.method = SegmentationMethod::kNormalClusters; });
+  const Score grown = scorePiles(piles, 640, 480, false, false,
+      [](SegmentationOptions& o) { o.method = SegmentationMethod::kRegionGrowing; });
   for (const Score* s : {&clusters, &grown}) {
     int visible = 0, found = 0;
     for (const auto& [grade, g] : s->grades) visible += g.visible, found += g.found;
@@ -355,8 +343,10 @@ constexpr NoiseSampler kAsFound = NoiseSampler::kBoxMuller;
 TEST(PileSegmentation, TheSanityJoinMakesOneSegmentOfASolidLccpCutsWhereItsFacesMeetEdgeOn) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score apart, joined;
-  scorePile(*w, 2, 8, 640, 480, apart, false, false, {}, 0.0, 0.0, {}, {}, {}, kAsFound);
-  scorePile(*w, 2, 8, 640, 480, joined, false, false, {}, SegmentationOptions{}.sanity_join, 0.0, {}, {}, {}, kAsFound);
+  scorePile(*w, 2, 8, 640, 480, apart, false, false,
+      [](SegmentationOptions& o) { o.sanity_join = 0.0; o.max_object_length = 0.0; }, kAsFound);
+  scorePile(*w, 2, 8, 640, 480, joined, false, false,
+      [](SegmentationOptions& o) { o.sanity_join = SegmentationOptions{}.sanity_join; o.max_object_length = 0.0; }, kAsFound);
   int found_apart = 0, found_joined = 0;
   for (const auto& [grade, g] : apart.grades) found_apart += g.found;
   for (const auto& [grade, g] : joined.grades) found_joined += g.found;
@@ -372,8 +362,9 @@ TEST(PileSegmentation, TheSanityJoinMakesOneSegmentOfASolidLccpCutsWhereItsFaces
 TEST(PileSegmentation, PiecesThatTogetherFitAnObjectsSizeAreJoinedIntoOne) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score apart, joined;
-  scorePile(*w, 2, 2, 640, 480, apart, false, false, {}, {}, 0.0, {}, {}, {}, kAsFound);
-  scorePile(*w, 2, 2, 640, 480, joined, false, false, {}, {}, ObjectSetOptions{}.max_extent, {}, {}, {}, kAsFound);
+  scorePile(*w, 2, 2, 640, 480, apart, false, false, [](SegmentationOptions& o) { o.max_object_length = 0.0; }, kAsFound);
+  scorePile(*w, 2, 2, 640, 480, joined, false, false,
+      [](SegmentationOptions& o) { o.max_object_length = ObjectSetOptions{}.max_extent; }, kAsFound);
   int found_apart = 0, found_joined = 0;
   for (const auto& [grade, g] : apart.grades) found_apart += g.found;
   for (const auto& [grade, g] : joined.grades) found_joined += g.found;
@@ -404,8 +395,9 @@ TEST(PileSegmentation, ACampaignTakesAGeneratedObjectAsWideAsItIsLong) {
 TEST(PileSegmentation, AHollowObjectsHalvesAreJoinedThoughWiderThanThePieceTheFingersCloseOn) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score narrow, whole;
-  scorePile(*w, 1, 31, 640, 480, narrow, false, false, {}, {}, {}, {}, ObjectSetOptions{}.max_width, {}, kAsFound);
-  scorePile(*w, 1, 31, 640, 480, whole, false, false, {}, {}, {}, {}, {}, {}, kAsFound);
+  scorePile(*w, 1, 31, 640, 480, narrow, false, false,
+      [](SegmentationOptions& o) { o.max_object_width = ObjectSetOptions{}.max_width; }, kAsFound);
+  scorePile(*w, 1, 31, 640, 480, whole, false, false, {}, kAsFound);
   EXPECT_EQ(narrow.grades["hollow"].found + 1, whole.grades["hollow"].found);
   EXPECT_EQ(whole.false_segments, narrow.false_segments - 2);
   EXPECT_EQ(whole.segments, narrow.segments - 1);
@@ -419,8 +411,12 @@ TEST(PileSegmentation, AHollowObjectsHalvesAreJoinedThoughWiderThanThePieceTheFi
 TEST(PileSegmentation, ASegmentLargerThanAnyObjectIsCutAgainAtATighterConcavity) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score whole, cut;
-  scorePile(*w, 1, 23, 640, 480, whole, false, false, {}, {}, {}, 0.0, {}, 0.0, kAsFound, false, {}, 0.0);
-  scorePile(*w, 1, 23, 640, 480, cut, false, false, {}, {}, {}, SegmentationOptions{}.recut_tolerance, {}, 0.0, kAsFound, false, {}, 0.0);
+  // The recut alone: the waist, the split of unconnected pixels and the bridge's cut off.
+  auto recutOnly = [](double recut) {
+    return [recut](SegmentationOptions& o) { o.recut_tolerance = recut, o.waist_depth = 0, o.split_unconnected = false, o.bridge_width = 0; };
+  };
+  scorePile(*w, 1, 23, 640, 480, whole, false, false, recutOnly(0.0), kAsFound);
+  scorePile(*w, 1, 23, 640, 480, cut, false, false, recutOnly(SegmentationOptions{}.recut_tolerance), kAsFound);
   int found_whole = 0, found_cut = 0;
   for (const auto& [grade, g] : whole.grades) found_whole += g.found;
   for (const auto& [grade, g] : cut.grades) found_cut += g.found;
@@ -436,8 +432,8 @@ TEST(PileSegmentation, ASegmentLargerThanAnyObjectIsCutAgainAtATighterConcavity)
 TEST(PileSegmentation, ASegmentOfTwoSolidsSideBySideIsCutAtTheWaistBetweenThem) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score whole, cut;
-  scorePile(*w, 1, 1, 640, 480, whole, false, false, {}, {}, {}, {}, {}, 0.0);
-  scorePile(*w, 1, 1, 640, 480, cut, false, false, {}, {}, {}, {}, {}, SegmentationOptions{}.waist_depth);
+  scorePile(*w, 1, 1, 640, 480, whole, false, false, [](SegmentationOptions& o) { o.waist_depth = 0.0; });
+  scorePile(*w, 1, 1, 640, 480, cut, false, false, [](SegmentationOptions& o) { o.waist_depth = SegmentationOptions{}.waist_depth; });
   EXPECT_EQ(cut.grades["convex"].found, whole.grades["convex"].found + 2);
   EXPECT_EQ(cut.segments, whole.segments + 1);
   EXPECT_EQ(cut.false_segments, whole.false_segments - 1);
@@ -453,9 +449,9 @@ TEST(PileSegmentation, ASegmentOfTwoSolidsSideBySideIsCutAtTheWaistBetweenThem) 
 TEST(PileSegmentation, ASpeckledMasksNotchesAreNoWaist) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score cut, whole;
-  scorePile(*w, 5, 11, 640, 480, cut, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, {}, {}, 0.0, false);
-  scorePile(*w, 5, 11, 640, 480, whole, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, {}, {},
-            SegmentationOptions{}.waist_fill, false);
+  scorePile(*w, 5, 11, 640, 480, cut, false, false, [](SegmentationOptions& o) { o.waist_fill = 0.0; o.waist_smooth = false; });
+  scorePile(*w, 5, 11, 640, 480, whole, false, false,
+      [](SegmentationOptions& o) { o.waist_fill = SegmentationOptions{}.waist_fill; o.waist_smooth = false; });
   EXPECT_EQ(whole.grades["hollow"].found, cut.grades["hollow"].found + 1);
   EXPECT_EQ(whole.segments, cut.segments - 1);
   EXPECT_EQ(whole.false_segments, cut.false_segments - 2);
@@ -470,8 +466,8 @@ TEST(PileSegmentation, ASpeckledMasksNotchesAreNoWaist) {
 TEST(PileSegmentation, AWaistSmoothInDepthIsNotCut) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score cut, whole;
-  scorePile(*w, 1, 13, 640, 480, cut, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, {}, {}, {}, false);
-  scorePile(*w, 1, 13, 640, 480, whole, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, {}, {}, {}, true);
+  scorePile(*w, 1, 13, 640, 480, cut, false, false, [](SegmentationOptions& o) { o.waist_smooth = false; });
+  scorePile(*w, 1, 13, 640, 480, whole, false, false, [](SegmentationOptions& o) { o.waist_smooth = true; });
   EXPECT_EQ(whole.grades["bent"].found, cut.grades["bent"].found);
   EXPECT_EQ(whole.segments, cut.segments - 1);
   EXPECT_EQ(whole.false_segments, cut.false_segments - 1);
@@ -484,9 +480,8 @@ TEST(PileSegmentation, AWaistSmoothInDepthIsNotCut) {
 TEST(PileSegmentation, ASegmentTooSmallByAreaIsAPatchNotAnObject) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score by_pixels, by_area;
-  scorePile(*w, 1, 23, 640, 480, by_pixels, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, {}, {}, {}, {}, 0.0);
-  scorePile(*w, 1, 23, 640, 480, by_area, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, {}, {}, {}, {},
-            SegmentationOptions{}.min_area);
+  scorePile(*w, 1, 23, 640, 480, by_pixels, false, false, [](SegmentationOptions& o) { o.min_area = 0.0; });
+  scorePile(*w, 1, 23, 640, 480, by_area, false, false, [](SegmentationOptions& o) { o.min_area = SegmentationOptions{}.min_area; });
   int found_by_pixels = 0, found_by_area = 0;
   for (const auto& [grade, g] : by_pixels.grades) found_by_pixels += g.found;
   for (const auto& [grade, g] : by_area.grades) found_by_area += g.found;
@@ -504,8 +499,8 @@ TEST(PileSegmentation, ASegmentTooSmallByAreaIsAPatchNotAnObject) {
 TEST(PileSegmentation, TwoSolidsHeldTogetherByABridgeOfPixelsAreCutApart) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score whole, cut;
-  scorePile(*w, 1, 13, 640, 480, whole, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, 0.0);
-  scorePile(*w, 1, 13, 640, 480, cut, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, SegmentationOptions{}.bridge_width);
+  scorePile(*w, 1, 13, 640, 480, whole, false, false, [](SegmentationOptions& o) { o.bridge_width = 0.0; });
+  scorePile(*w, 1, 13, 640, 480, cut, false, false, [](SegmentationOptions& o) { o.bridge_width = SegmentationOptions{}.bridge_width; });
   EXPECT_EQ(cut.grades["convex"].found, whole.grades["convex"].found + 1);
   EXPECT_EQ(cut.segments, whole.segments + 1);
   EXPECT_EQ(cut.false_segments, whole.false_segments);
@@ -520,9 +515,8 @@ TEST(PileSegmentation, TwoSolidsHeldTogetherByABridgeOfPixelsAreCutApart) {
 TEST(PileSegmentation, PiecesOfOneSurfaceCutAtItsBendAreJoinedAcrossTheirSmoothBorder) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score apart, joined;
-  scorePile(*w, 1, 6, 640, 480, apart, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, {}, 0.0);
-  scorePile(*w, 1, 6, 640, 480, joined, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, {},
-            SegmentationOptions{}.smooth_step);
+  scorePile(*w, 1, 6, 640, 480, apart, false, false, [](SegmentationOptions& o) { o.smooth_step = 0.0; });
+  scorePile(*w, 1, 6, 640, 480, joined, false, false, [](SegmentationOptions& o) { o.smooth_step = SegmentationOptions{}.smooth_step; });
   EXPECT_EQ(joined.grades["bent"].found, apart.grades["bent"].found + 1);
   EXPECT_EQ(joined.false_segments, apart.false_segments - 2);
   EXPECT_EQ(joined.segments, apart.segments - 1);
@@ -540,8 +534,10 @@ TEST(PileSegmentation, PiecesOfOneSurfaceCutAtItsBendAreJoinedAcrossTheirSmoothB
 TEST(PileSegmentation, ASegmentWhosePixelsFallApartInTheImageIsCutIntoItsPieces) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score whole, cut;
-  scorePile(*w, 1, 37, 640, 480, whole, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, false, 0, {}, {}, {}, false);
-  scorePile(*w, 1, 37, 640, 480, cut, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, true, 0, {}, {}, {}, false);
+  scorePile(*w, 1, 37, 640, 480, whole, false, false,
+      [](SegmentationOptions& o) { o.split_unconnected = false; o.crumb_pixels = 0; o.waist_smooth = false; });
+  scorePile(*w, 1, 37, 640, 480, cut, false, false,
+      [](SegmentationOptions& o) { o.split_unconnected = true; o.crumb_pixels = 0; o.waist_smooth = false; });
   EXPECT_EQ(cut.grades["convex"].found, whole.grades["convex"].found + 1);
   EXPECT_EQ(cut.grades["blend"].found, whole.grades["blend"].found + 1);
   EXPECT_EQ(cut.false_segments, whole.false_segments - 2);
@@ -556,8 +552,8 @@ TEST(PileSegmentation, ASegmentWhosePixelsFallApartInTheImageIsCutIntoItsPieces)
 TEST(PileSegmentation, SmallElongatedPiecesLeftAreJoinedWhereTheyFitAnObjectInSomeTurn) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score apart, joined;
-  scorePile(*w, 2, 37, 640, 480, apart, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, 0);
-  scorePile(*w, 2, 37, 640, 480, joined, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, SegmentationOptions{}.crumb_pixels);
+  scorePile(*w, 2, 37, 640, 480, apart, false, false, [](SegmentationOptions& o) { o.crumb_pixels = 0; });
+  scorePile(*w, 2, 37, 640, 480, joined, false, false, [](SegmentationOptions& o) { o.crumb_pixels = SegmentationOptions{}.crumb_pixels; });
   EXPECT_EQ(joined.grades["hollow"].found, apart.grades["hollow"].found + 1);
   EXPECT_EQ(joined.false_segments, apart.false_segments - 3);
   EXPECT_EQ(joined.segments, apart.segments - 2);
@@ -570,9 +566,9 @@ TEST(PileSegmentation, SmallElongatedPiecesLeftAreJoinedWhereTheyFitAnObjectInSo
 TEST(PileSegmentation, ACrumbJoinsOnlyANeighbourAtItsHeight) {
   auto w = SimWorld::load("scenes/bin_clearing.xml", panda());
   Score any, near;
-  scorePile(*w, 1, 21, 640, 480, any, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, {}, {}, {}, {}, {}, 0.0);
-  scorePile(*w, 1, 21, 640, 480, near, false, false, {}, {}, {}, {}, {}, {}, NoiseSampler::kZiggurat, {}, {}, {}, {}, {}, {}, {},
-            SegmentationOptions{}.crumb_top_step);
+  scorePile(*w, 1, 21, 640, 480, any, false, false, [](SegmentationOptions& o) { o.crumb_top_step = 0.0; });
+  scorePile(*w, 1, 21, 640, 480, near, false, false,
+      [](SegmentationOptions& o) { o.crumb_top_step = SegmentationOptions{}.crumb_top_step; });
   EXPECT_EQ(near.grades["convex"].found, any.grades["convex"].found + 1);
   EXPECT_EQ(near.false_segments, any.false_segments);
   EXPECT_EQ(near.segments, any.segments + 1);
