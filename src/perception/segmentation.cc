@@ -248,51 +248,56 @@ double fitInSomeTurn(const std::vector<Vec2>& a, const std::vector<Vec2>& b, dou
   return best;
 }
 
+// Which pairs a join by size takes (SegmentationOptions): any pair (kSize), pairs one of which is
+// a crumb (kCrumbs), pairs whose border in the image is smooth (kSmoothBorder).
+enum class JoinOf { kSize, kCrumbs, kSmoothBorder };
+
 // Neighbouring segments (`near`, by index) whose points together still fit what an object can
-// measure seen from above are joined: of the pairs that fit, the one whose union is shortest first
-// (then the first pair), until none fits. LCCP cuts an object where its surface turns concave (a
-// bar's bend, a stack's ledge, a cup's rim from its inside); its pieces together are mostly one
-// object's size, where two touching objects together are mostly larger (two small ones that
-// together fit are joined all the same). The extents are the points' spread along their
-// principal axis and across it.
-// With `crumb_pixels` (SegmentationOptions::crumb_pixels), only pairs of which the smaller is a
-// crumb: fewer pixels than that, its own principal extents at least `crumb_aspect` to one; the
-// two segments' tops within `crumb_top_step` of each other (where that is above 0); and the union
-// fits in some turn (fitInSomeTurn), not along its principal axes.
-// With `frame` (SegmentationOptions::smooth_step), only pairs whose border in the image is smooth:
-// of the pixel pairs where they touch (4-neighbours), at least `smooth_pairs` and at least
-// `smooth_share` of them differ in depth by at most `smooth_step`; and the union fits in some turn.
+// measure seen from above (o.max_object_length by o.max_object_width) are joined: of the pairs
+// that fit, the one whose union is shortest first (then the first pair), until none fits. LCCP
+// cuts an object where its surface turns concave (a bar's bend, a stack's ledge, a cup's rim from
+// its inside); its pieces together are mostly one object's size, where two touching objects
+// together are mostly larger (two small ones that together fit are joined all the same). The
+// extents are the points' spread along their principal axis and across it.
+// kCrumbs: only pairs of which the smaller is a crumb: fewer pixels than o.crumb_pixels, its own
+// principal extents at least o.crumb_aspect to one; the two segments' tops within
+// o.crumb_top_step of each other (where that is above 0); and the union fits in some turn
+// (fitInSomeTurn), not along its principal axes.
+// kSmoothBorder: only pairs whose border in `frame` is smooth: of the pixel pairs where they touch
+// (4-neighbours), at least o.smooth_pairs and at least o.smooth_share of them differ in depth by
+// at most o.smooth_step; and the union fits in some turn.
 void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<int>>& near, const Pose& T_region_world,
-                          double max_length, double max_width, int crumb_pixels = 0, double crumb_aspect = 0, double crumb_top_step = 0,
-                          const Frame* frame = nullptr, double smooth_step = 0, double smooth_share = 0, int smooth_pairs = 0) {
+                          const SegmentationOptions& o, JoinOf of, const Frame& frame) {
   const size_t n = segments.size();
-  // With `frame`: each pixel's segment (-1: none) over the segments' bounding rectangle (every
+  const double max_length = o.max_object_length, max_width = o.max_object_width;
+  const bool smooth = of == JoinOf::kSmoothBorder;
+  // kSmoothBorder: each pixel's segment (-1: none) over the segments' bounding rectangle (every
   // pixel outside it is none's).
-  const int cols = frame ? frame->camera.width : 0;
+  const int cols = frame.camera.width;
   int u0 = cols, v0 = std::numeric_limits<int>::max(), u1 = -1, v1 = -1;
   std::vector<int> owner;
-  if (frame) {
+  if (smooth) {
     for (const Segment& s : segments)
       for (int p : s.pixels) u0 = std::min(u0, p % cols), u1 = std::max(u1, p % cols), v0 = std::min(v0, p / cols), v1 = std::max(v1, p / cols);
     if (u1 >= u0) owner.assign(static_cast<size_t>(u1 - u0 + 1) * static_cast<size_t>(v1 - v0 + 1), -1);
   }
   const auto cellOf = [&](int p) { return static_cast<size_t>((p / cols - v0) * (u1 - u0 + 1) + (p % cols - u0)); };
   const auto inRect = [&](int p) { return p % cols >= u0 && p % cols <= u1 && p / cols >= v0 && p / cols <= v1; };
-  for (size_t i = 0; i < n && frame; ++i)
+  for (size_t i = 0; i < n && smooth; ++i)
     for (int p : segments[i].pixels) owner[cellOf(p)] = static_cast<int>(i);
   auto smoothJoin = [&](size_t i, size_t j) {
     const auto owned = [&](int p) { return inRect(p) ? owner[cellOf(p)] : -1; };
-    return smoothBorder(pairsAcross(*frame, segments[i].pixels, owned, static_cast<int>(i), static_cast<int>(j), smooth_step), smooth_share,
-                        smooth_pairs);
+    return smoothBorder(pairsAcross(frame, segments[i].pixels, owned, static_cast<int>(i), static_cast<int>(j), o.smooth_step), o.smooth_share,
+                        o.smooth_pairs);
   };
   std::vector<std::vector<Vec2>> xy(n);
   for (size_t i = 0; i < n; ++i)
     for (const Vec3& p : segments[i].points) xy[i].push_back((T_region_world * p).head<2>());
   // A crumb: small, and elongated seen from above.
   auto crumb = [&](size_t i) {
-    if (static_cast<int>(segments[i].pixels.size()) >= crumb_pixels) return false;
+    if (static_cast<int>(segments[i].pixels.size()) >= o.crumb_pixels) return false;
     const auto [length, width] = extentsFromAbove(xy[i], {});
-    return length >= crumb_aspect * width;
+    return length >= o.crumb_aspect * width;
   };
   // A pair's union's length where it fits (INFINITY where not), until either changes.
   std::map<std::pair<int, int>, double> fit;
@@ -307,13 +312,13 @@ void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<i
         auto it = fit.find({static_cast<int>(i), j});
         if (it == fit.end()) {
           double length = INFINITY;
-          if (frame) {
+          if (smooth) {
             if (smoothJoin(i, uj)) length = fitInSomeTurn(xy[i], xy[uj], max_length, max_width);
-          } else if (crumb_pixels <= 0) {
+          } else if (of == JoinOf::kSize) {
             const auto [l, w] = extentsFromAbove(xy[i], xy[uj]);
             if (l <= max_length && w <= max_width) length = l;
           } else if (crumb(segments[i].pixels.size() <= segments[uj].pixels.size() ? i : uj) &&
-                     (crumb_top_step <= 0 || std::abs(segments[i].top - segments[uj].top) <= crumb_top_step)) {
+                     (o.crumb_top_step <= 0 || std::abs(segments[i].top - segments[uj].top) <= o.crumb_top_step)) {
             length = fitInSomeTurn(xy[i], xy[uj], max_length, max_width);
           }
           it = fit.emplace(std::pair{static_cast<int>(i), j}, length).first;
@@ -324,7 +329,7 @@ void joinWithinObjectSize(std::vector<Segment>& segments, std::vector<std::set<i
     if (bi < 0) return;
     const size_t a = static_cast<size_t>(bi), b = static_cast<size_t>(bj);
     // b into a: the pixels kept ascending, each with its point.
-    if (frame)
+    if (smooth)
       for (int p : segments[b].pixels) owner[cellOf(p)] = bi;
     std::vector<std::pair<int, Vec3>> merged;
     for (size_t s : {a, b})
@@ -876,13 +881,9 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
           if (l >= 0 && l != static_cast<int>(k)) near[k].insert(l), near[static_cast<size_t>(l)].insert(static_cast<int>(k));
         }
       }
-    joinWithinObjectSize(segments, near, T_region_world, o.max_object_length, o.max_object_width);
-    if (o.crumb_pixels > 0)
-      joinWithinObjectSize(segments, near, T_region_world, o.max_object_length, o.max_object_width, o.crumb_pixels, o.crumb_aspect,
-                           o.crumb_top_step);
-    if (o.smooth_step > 0)
-      joinWithinObjectSize(segments, near, T_region_world, o.max_object_length, o.max_object_width, 0, 0, 0, &frame, o.smooth_step,
-                           o.smooth_share, o.smooth_pairs);
+    joinWithinObjectSize(segments, near, T_region_world, o, JoinOf::kSize, frame);
+    if (o.crumb_pixels > 0) joinWithinObjectSize(segments, near, T_region_world, o, JoinOf::kCrumbs, frame);
+    if (o.smooth_step > 0) joinWithinObjectSize(segments, near, T_region_world, o, JoinOf::kSmoothBorder, frame);
     if (o.waist_depth > 0) splitAtWaists(frame, segments, o, T_region_world);
     if (o.bridge_width > 0) splitAtBridges(frame, segments, o, T_region_world);
   }
