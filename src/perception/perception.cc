@@ -65,6 +65,10 @@ SegmentationOptions segmentationOptions(const PerceptionOptions& o) {
   if (o.known_models)
     so.sanity_join = 0, so.recut_tolerance = 0, so.split_unconnected = false, so.crumb_pixels = 0, so.smooth_step = 0, so.waist_depth = 0,
         so.bridge_width = 0;
+  // The learned merge of the supervoxels was fitted and measured on generated objects, within
+  // their size limits: known objects, and the catalogue's and mesh kinds (no size limits), keep
+  // LCCP's, as they were measured.
+  if (o.known_models || o.object_length <= 0 || o.object_width <= 0) so.merge = SupervoxelMerge::kConvexity;
   return so;
 }
 

@@ -1,23 +1,30 @@
 // Instance segmentation of one depth view of a bin of unknown objects, with no object model:
-// the points above the bin's floor and inside its walls, cut into object segments where the
-// surface turns concave (LCCP: Stein, Schoeler, Papon, Woergoetter, "Object Partitioning using
-// Local Convexity", CVPR 2014), on PCL 1.13's supervoxels and LCCP (docs/design/point-cloud-library.md).
+// the points above the bin's floor and inside its walls, cut into supervoxels (PCL 1.13's; docs/
+// design/point-cloud-library.md), which are joined into object segments by a learned score of how
+// each two meet - LCCP's convexity criterion among what it reads (Stein, Schoeler, Papon,
+// Woergoetter, "Object Partitioning using Local Convexity", CVPR 2014), the step and the line of
+// no depth between them in the image - greedily, within what an object can measure.
 //   depth -> the pixels' points in the world -> those inside the bin (its footprint less the walls'
 //   margin, above the floor's noise, below the tallest object) -> supervoxels (voxels grown from
-//   seeds on a grid, by distance and normals) -> neighbouring supervoxels joined where the surface
-//   between them is convex or smooth -> LCCP's segments joined where the connections between them
-//   are mostly convex ones only its sanity criterion refused -> a segment larger than any object
-//   cut again at a tighter concavity -> a segment whose pixels fall apart in the image (the camera
-//   measured no depth between them) cut into its pieces -> neighbouring segments joined while
-//   their points together fit what an object can measure seen from above -> a small elongated
-//   segment left (a piece of an object) joined to a neighbour it fits with in some turn -> a
-//   segment whose outline narrows to a waist between two deep concavities cut there, unless the
-//   depth is smooth across the cut -> segments, each the pixels of its points.
+//   seeds on a grid, by distance and normals) -> each connection between neighbouring supervoxels
+//   scored (the log-odds of one object, a logistic model fitted on generated piles), and the pair
+//   of segments whose connections sum highest joined, while a sum is above 0 and the two together
+//   fit an object's size (greedy additive edge contraction) -> a segment whose pixels fall apart
+//   in the image (the camera measured no depth between them) cut into its pieces -> neighbouring
+//   segments joined while their points together fit what an object can measure seen from above
+//   -> a small elongated segment left (a piece of an object) joined to a neighbour it fits with in
+//   some turn -> a segment whose outline narrows to a waist between two deep concavities cut
+//   there, unless the depth is smooth across the cut -> segments, each the pixels of its points.
+// SegmentationOptions::merge = kConvexity joins the supervoxels by LCCP instead (the default before
+// 2026-12-08): neighbouring supervoxels joined where the surface between them is convex or smooth
+// -> LCCP's segments joined where the connections between them are mostly convex ones only its
+// sanity criterion refused -> a segment larger than any object cut again at a tighter concavity.
 // Reads only the frame's depth and its camera (the extrinsics as calibrated) and the bin's known
 // geometry. Every PCL call runs on this thread; the same image gives the same segments.
 // SegmentationOptions::method picks instead region growing or clustering with normals, the
 // alternatives LCCP was measured against (docs/measurements/perception.md).
 #pragma once
+#include <array>
 #include <vector>
 
 #include "core/camera.h"
@@ -25,9 +32,14 @@
 
 namespace mm {
 
-/// How the points are cut into segments: supervoxels and LCCP (the default), or, measured against
-/// it (docs/measurements/perception.md), region growing or clustering by distance and normals.
+/// How the points are cut into segments: supervoxels joined (by a learned score, or by LCCP: merge;
+/// the default), or, measured against LCCP (docs/measurements/perception.md), region growing or
+/// clustering by distance and normals.
 enum class SegmentationMethod { kLccp, kRegionGrowing, kNormalClusters };
+
+/// How kLccp joins neighbouring supervoxels into segments: by a learned score of each connection,
+/// greedily within the objects' size (the default), or by LCCP's convexity alone.
+enum class SupervoxelMerge { kLearned, kConvexity };
 
 struct SegmentationOptions {
   SegmentationMethod method = SegmentationMethod::kLccp;
@@ -38,7 +50,7 @@ struct SegmentationOptions {
   double region_height = 0.15;      ///< [m] above the floor
   double floor_margin = 0.006;      ///< [m] points this close to the floor's plane are the floor's (its noise)
   double wall_margin = 0.004;       ///< [m] points this close to the footprint's edge, or beyond, are the walls'
-  // Supervoxels and LCCP (PCL's names).
+  // Supervoxels and LCCP (PCL's names; LCCP's for merge kConvexity).
   double voxel = 0.004;                ///< [m] the voxel
   double seed = 0.025;                 ///< [m] the supervoxels' seed spacing
   double normal_importance = 4.0;      ///< against spatial importance 1 (colour: none)
@@ -46,8 +58,22 @@ struct SegmentationOptions {
   double smoothness = 0.0;             ///< LCCP's smoothness threshold (0: no smoothness check)
   int k_factor = 0;                    ///< extended convexity: common neighbours convex to both (0: none)
   int min_supervoxels = 3;             ///< a segment of at most this many supervoxels joins its largest neighbour (LCCP's rule)
+  /// kLearned: each connection between neighbouring supervoxels scored by a logistic model of how
+  /// the two meet (kConnectionWeights over connectionFeatures: LCCP's angles among them, the step
+  /// and the line of no depth between them in the image), the log-odds that they are one object's;
+  /// then greedy additive edge contraction (Keuper et al., "Efficient decomposition of image and
+  /// mesh graphs by lifted multicuts", ICCV 2015): the pair of neighbouring segments whose
+  /// connections' scores sum highest joins, their connections to others summed, until no sum is
+  /// above 0 - but a pair whose points together fit max_object_length by max_object_width in no
+  /// turn (seen from above, 1-degree turns) is never joined (where those are 0, any pair may).
+  /// kConvexity: LCCP's segments (its convexity criterion, concavity_tolerance, the sanity
+  /// criterion), then the joins and cuts of sanity_join and recut_tolerance.
+  SupervoxelMerge merge = SupervoxelMerge::kLearned;
+  /// [log-odds] added to every connection's score (kLearned): below 0 joins fewer.
+  double merge_bias = -2.0;
   /// Two of LCCP's segments join where the connections between them that only LCCP's sanity
-  /// criterion refused are at least one, and at least this many times the concave ones (0: never).
+  /// criterion refused are at least one, and at least this many times the concave ones (0: never;
+  /// merge kConvexity only).
   double sanity_join = 2.0;
   /// [m] What an object of the bin can measure seen from above: the principal extents of its
   /// points over the floor, along (length) and across (width). Two neighbouring segments (through
@@ -59,7 +85,8 @@ struct SegmentationOptions {
   /// [deg] An LCCP segment larger than an object can be (max_object_length by max_object_width;
   /// none when those are 0) is cut again at connections concave by more than this (0: never);
   /// pieces of at most min_supervoxels join their largest neighbour within it. After the join of
-  /// faces seen edge on, before LCCP's rule for small segments and the join by size.
+  /// faces seen edge on, before LCCP's rule for small segments and the join by size (merge
+  /// kConvexity only).
   double recut_tolerance = 12.0;
   /// A segment whose own pixels fall apart in the image (4-connected: the camera measured no depth
   /// between them, as along the edge where two objects touch) is cut into its pieces of at least
@@ -152,12 +179,32 @@ struct Segmentation {
   std::vector<Segment> segments;  ///< by their first pixel
   std::vector<Segment> small;     ///< too small to be an object, seen all the same (obstacles), by their first pixel
   int points = 0;                 ///< the pixels inside the bin, above its floor
-  int supervoxels = 0;            ///< LCCP's (0 with the other methods)
+  int supervoxels = 0;            ///< the supervoxels' count (0 with the other methods)
   double seconds = 0;             ///< wall clock (benchmarks print it; nothing decides by it)
 };
 
 /// The segments of `frame`'s depth inside the region.
 Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o);
+
+/// What the learned merge (SupervoxelMerge::kLearned) reads of a connection between two
+/// neighbouring supervoxels; kConnectionWeights weighs them (the first is 1, the constant's).
+constexpr int kConnectionFeatures = 25;
+using ConnectionFeatures = std::array<double, kConnectionFeatures>;
+extern const ConnectionFeatures kConnectionWeights;
+
+/// The supervoxels segmentDepth (method kLccp) cuts `frame`'s depth into, each by its pixels
+/// (ascending), and the connections between neighbouring ones with what the learned merge reads
+/// of them. For fitting kConnectionWeights (labels from the renderer's, which segmentDepth never
+/// reads; tests/perception/pile_segmentation_test.cc) and measuring it.
+struct SupervoxelGraph {
+  struct Connection {
+    int a = 0, b = 0;  ///< supervoxels, a < b
+    ConnectionFeatures features{};
+  };
+  std::vector<std::vector<int>> pixels;
+  std::vector<Connection> connections;  ///< by (a, b)
+};
+SupervoxelGraph supervoxelGraph(const Frame& frame, const SegmentationOptions& o);
 
 /// An oracle's segments: the renderer's per-object labels (Frame::segmentation) cut the same points
 /// of the region (its depth, as segmentDepth takes them) into one segment per object, with
