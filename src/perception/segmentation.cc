@@ -435,7 +435,9 @@ ConnectionGraph connectionGraph(const Frame& frame, const RegionCloud& rc, const
 }
 
 // SupervoxelMerge::kLearned: each supervoxel's segment (the index of one of its supervoxels), by
-// greedy additive edge contraction on the connections' scores (SegmentationOptions::merge).
+// greedy additive edge contraction on the connections' scores (SegmentationOptions::merge). A
+// connection with a measure not finite (a supervoxel PCL gave no normal; one of the 66,814 of the
+// training piles) scores NaN, and its two segments are never joined, as LCCP judges it concave.
 std::vector<int> joinByScore(ConnectionGraph& g, const SegmentationOptions& o) {
   const size_t n = g.label.size();
   std::vector<std::map<int, double>> between(n);  // segment -> its neighbours' summed scores
@@ -1107,16 +1109,16 @@ Segmentation segmentDepth(const Frame& frame, const SegmentationOptions& o) {
   return out;
 }
 
-// Fitted by logistic regression (L2 1e-2, Newton's method) on 66814 connections between
+// Fitted by logistic regression (L2 1e-2, Newton's method) on 66813 connections between
 // supervoxels of one object or of two, labelled by the renderer's labels: the piles of seeds
 // 17-32 (40 each; the training set, never an evaluation's), as
 // PileSegmentation.DISABLED_FitsTheConnectionModel prints them (docs/measurements/perception.md).
 const ConnectionFeatures kConnectionWeights{{
-    13.0515, -2.87059, -4.20431, 0.851973, 1.60743,
-    1.30262, -1.14656, 0.126907, 1.88183, -0.00875507,
-    -0.36775, -1.88604, -0.436439, -1.25772, -0.692895,
-    -0.683238, -2.32732, -0.556913, 0.0653808, 0.205828,
-    1.01012, 0.522529, -0.0867535, -0.197693, 1.0035,
+    13.0502, -1.09608, -4.20476, -0.925046, -0.171035,
+    1.30298, -1.14662, 0.126809, 1.88196, -0.00767897,
+    -0.365344, -1.88631, -0.436014, -1.2559, -0.691916,
+    -0.683215, -2.33588, -0.558797, 0.0662785, 0.205539,
+    1.00476, 0.522588, -0.0866714, -0.197906, 1.00415,
 }};
 
 SupervoxelGraph supervoxelGraph(const Frame& frame, const SegmentationOptions& o) {

@@ -59,12 +59,12 @@ struct SegmentationOptions {
   int k_factor = 0;                    ///< extended convexity: common neighbours convex to both (0: none)
   int min_supervoxels = 3;             ///< a segment of at most this many supervoxels joins its largest neighbour (LCCP's rule)
   /// kLearned: each connection between neighbouring supervoxels scored by a logistic model of how
-  /// the two meet (kConnectionWeights over connectionFeatures: LCCP's angles among them, the step
-  /// and the line of no depth between them in the image), the log-odds that they are one object's;
-  /// then greedy additive edge contraction (Keuper et al., "Efficient decomposition of image and
-  /// mesh graphs by lifted multicuts", ICCV 2015): the pair of neighbouring segments whose
-  /// connections' scores sum highest joins, their connections to others summed, until no sum is
-  /// above 0 - but a pair whose points together fit max_object_length by max_object_width in no
+  /// the two meet (kConnectionWeights over the measures supervoxelGraph gives: LCCP's angles among
+  /// them, the step and the line of no depth between them in the image), the log-odds that they are
+  /// one object's; then greedy additive edge contraction (Keuper et al., "Efficient decomposition
+  /// of image and mesh graphs by lifted multicuts", ICCV 2015): the pair of neighbouring segments
+  /// whose connections' scores sum highest joins, their connections to others summed, until no sum
+  /// is above 0 - but a pair whose points together fit max_object_length by max_object_width in no
   /// turn (seen from above, 1-degree turns) is never joined (where those are 0, any pair may).
   /// kConvexity: LCCP's segments (its convexity criterion, concavity_tolerance, the sanity
   /// criterion), then the joins and cuts of sanity_join and recut_tolerance.
